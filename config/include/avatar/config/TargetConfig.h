@@ -1,0 +1,81 @@
+#pragma once
+/// @file TargetConfig.h
+/// Colour filter, feature locator and search window of each target type
+/// (thesis 3.3, 4.2.4).
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace avatar {
+
+/// A closed interval [min, max]; min <= max is enforced by validation.
+struct Range {
+    double min{0.0};
+    double max{0.0};
+    bool contains(double v) const { return min <= v && v <= max; }
+    bool operator==(const Range& o) const { return min == o.min && max == o.max; }
+};
+
+/// A rectangle of the image in pixels. width or height 0 means "the whole image".
+struct SearchWindow {
+    int x{0};
+    int y{0};
+    int width{0};
+    int height{0};
+    bool wholeImage() const { return width == 0 || height == 0; }
+    bool operator==(const SearchWindow& o) const {
+        return x == o.x && y == o.y && width == o.width && height == o.height;
+    }
+};
+
+/// Which colour filter a target type uses.
+enum class ColorFilterMethod {
+    RgbRatio,  ///< R/G, R/B, B/G ranges (thesis Figure 3-8)
+    Hsv        ///< hue/saturation/value ranges (the thesis's proposed alternative)
+};
+
+/// Hue in degrees [0, 360), saturation and value in [0, 1]. A hue range with
+/// min > max wraps through 0 (e.g. 340..20 for red).
+struct HsvRanges {
+    Range hue{0.0, 360.0};
+    Range saturation{0.0, 1.0};
+    Range value{0.0, 1.0};
+    bool operator==(const HsvRanges& o) const {
+        return hue == o.hue && saturation == o.saturation && value == o.value;
+    }
+};
+
+/// One kind of thing to find (e.g. "sample", "arm_marker").
+struct TargetType {
+    std::string name;  ///< unique, [A-Za-z0-9_-]+
+    ColorFilterMethod filter{ColorFilterMethod::RgbRatio};
+    Range redGreen{0.0, 1e9};   ///< R/G
+    Range redBlue{0.0, 1e9};    ///< R/B
+    Range blueGreen{0.0, 1e9};  ///< B/G
+    /// R+G+B magnitude, in the units of the image's samples; unset: not checked.
+    std::optional<Range> brightness;
+    HsvRanges hsv;              ///< used when filter == Hsv
+    bool erodeRestore{false};   ///< erode, then feature-AND restore (thesis 3.3.2)
+    int erodeKernelSize{3};     ///< odd, 1..31
+    Range area{20.0, 1e9};      ///< feature area in pixels
+    Range aspectRatio{0.0, 1e9};  ///< bounding-box width / height
+    Range areaRatio{0.0, 1.0};  ///< area / bounding-box area, within [0, 1]
+    SearchWindow window;        ///< where to look
+
+    bool operator==(const TargetType& o) const {
+        return name == o.name && filter == o.filter && redGreen == o.redGreen &&
+               redBlue == o.redBlue && blueGreen == o.blueGreen && brightness == o.brightness &&
+               hsv == o.hsv && erodeRestore == o.erodeRestore &&
+               erodeKernelSize == o.erodeKernelSize && area == o.area &&
+               aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window;
+    }
+};
+
+/// All target types searched for in each image pair.
+struct TargetConfig {
+    std::vector<TargetType> targets;
+    bool operator==(const TargetConfig& o) const { return targets == o.targets; }
+};
+
+}  // namespace avatar
