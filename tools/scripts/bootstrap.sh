@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Sets up a Debian 12 machine for AVATAR/TAU, builds it, and then either runs
+# the main job ("demo") or the whole test suite ("test").
+#
+#   bash tools/scripts/bootstrap.sh demo   # install what is missing, build, run the main job
+#   bash tools/scripts/bootstrap.sh test   # install what is missing, build, run ctest
+#
+# Environment: BUILD_DIR (default build), JOBS (default: number of cores).
+set -euo pipefail
+
+mode=${1:-}
+case "$mode" in
+  demo|test) ;;
+  *) echo "usage: $0 demo|test" >&2; exit 2 ;;
+esac
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+build=${BUILD_DIR:-$root/build}
+jobs=${JOBS:-$(nproc)}
+
+# Debian packages the build, the tests and the demo need.
+packages=(
+  build-essential cmake ninja-build pkg-config ccache
+  libopencv-dev libdc1394-dev libeigen3-dev libtinyxml2-dev
+  libboost-dev libboost-program-options-dev liblog4cpp5-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if ((${#missing[@]})); then
+  echo "== installing: ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo=sudo; fi
+  $sudo apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+echo "== configuring $build"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DAVATAR_WERROR=ON \
+      -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null
+echo "== building with $jobs jobs"
+cmake --build "$build" -j "$jobs"
+
+if [ "$mode" = test ]; then
+  echo "== running the test suite"
+  ctest --test-dir "$build" --output-on-failure -j "$jobs"
+  exit $?
+fi
+
+echo "== main job: the sample configuration and stereo pair"
+"$build/tools/avatar-info/avatar-info" --config "$root/data/config/scorpion.xml" \
+    --left "$root/data/sample/L_00001_00000_1280x960_16b_1c_BG_le.raw" \
+    --right "$root/data/sample/R_00001_00000_1280x960_16b_1c_BG_le.raw"
