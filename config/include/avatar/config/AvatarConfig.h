@@ -2,6 +2,7 @@
 /// @file AvatarConfig.h
 /// The whole configuration of AVATAR: one XML document (see docs/config.md).
 
+#include <avatar/config/AnalysisConfig.h>
 #include <avatar/config/CameraHardwareConfig.h>
 #include <avatar/config/LightingConfig.h>
 #include <avatar/config/MatchConfig.h>
@@ -18,10 +19,11 @@ struct AvatarConfig {
     MatchConfig match;
     StereoSystemConfig stereo;
     LightingConfig lighting;
+    AnalysisConfig analysis;
 
     bool operator==(const AvatarConfig& o) const {
         return camera == o.camera && targets == o.targets && match == o.match &&
-               stereo == o.stereo && lighting == o.lighting;
+               stereo == o.stereo && lighting == o.lighting && analysis == o.analysis;
     }
     bool operator!=(const AvatarConfig& o) const { return !(*this == o); }
 };

@@ -19,7 +19,9 @@ namespace avatar {
 class ConfigError : public Error {
 public:
     ConfigError(std::string source, int line, std::string elementPath, std::string problem);
-    const std::string& source() const { return source_; }       ///< file name or "<string>"
+    /// The file path as given to readConfigFile, the name given to
+    /// readConfigString (default "<string>"), or "<memory>" for validateConfig.
+    const std::string& source() const { return source_; }
     int line() const { return line_; }                          ///< 1-based, 0 if unknown
     const std::string& elementPath() const { return path_; }    ///< e.g. "/avatar/match/method"
     const std::string& problem() const { return problem_; }
@@ -44,7 +46,13 @@ std::string writeConfigString(const AvatarConfig& config);
 void writeConfigFile(const AvatarConfig& config, const std::filesystem::path& path);
 
 /// Checks every field of a configuration built in code; throws ConfigError
-/// (source "<memory>", line 0) naming the first bad field.
+/// (source "<memory>", line 0) naming the first bad field by the element path
+/// it would have in a document.
 void validateConfig(const AvatarConfig& config);
+
+/// Resolves a path stored in a configuration (e.g. LightingConfig::templateImagePath)
+/// against the directory of @p configFile, the file it was read from. Absolute
+/// and empty paths are returned unchanged.
+std::filesystem::path resolveConfigPath(const std::filesystem::path& configFile, const std::string& stored);
 
 }  // namespace avatar

@@ -46,6 +46,11 @@ struct HsvRanges {
     }
 };
 
+/// What is known of a target's 3-D shape. A sphere's silhouette centroid is
+/// not the projection of its centre; knowing the shape lets triangulation
+/// remove that bias (see docs/architecture.md).
+enum class TargetShape { Unknown, Sphere };
+
 /// One kind of thing to find (e.g. "sample", "arm_marker").
 struct TargetType {
     std::string name;  ///< unique, [A-Za-z0-9_-]+
@@ -62,13 +67,15 @@ struct TargetType {
     Range aspectRatio{0.0, 1e9};  ///< bounding-box width / height
     Range areaRatio{0.0, 1.0};  ///< area / bounding-box area, within [0, 1]
     SearchWindow window;        ///< where to look
+    TargetShape shape{TargetShape::Unknown};
 
     bool operator==(const TargetType& o) const {
         return name == o.name && filter == o.filter && redGreen == o.redGreen &&
                redBlue == o.redBlue && blueGreen == o.blueGreen && brightness == o.brightness &&
                hsv == o.hsv && erodeRestore == o.erodeRestore &&
                erodeKernelSize == o.erodeKernelSize && area == o.area &&
-               aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window;
+               aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window &&
+               shape == o.shape;
     }
 };
 

@@ -1,0 +1,54 @@
+#pragma once
+/// @file AnalysisConfig.h
+/// How the analysis pipeline runs (thesis 4.2.3): which stages, in which order,
+/// and the choices the thesis left open.
+
+#include <string>
+#include <vector>
+
+namespace avatar {
+
+/// Which 2-D point of a feature is triangulated as its position.
+enum class CentroidMode {
+    Pixel,             ///< mean pixel position (thesis Figure 3-13)
+    IntensityWeighted  ///< brightness-weighted mean: sub-pixel, less sensitive to the mask's edge
+};
+
+/// How a matched feature pair becomes a 3-D point (thesis 3.4.2).
+enum class TriangulationMode {
+    Centroid,   ///< triangulate the centroids
+    NinePoints  ///< triangulate the nine interest points and average (near-parallel cameras only)
+};
+
+enum class DemosaicAlgorithm { Bilinear, EdgeAware };
+
+/// Thresholds of the visibility verdict (thesis 3.6.1). An image is poor when
+/// its contrast is below minContrast, or more than maxSaturatedFraction of its
+/// pixels are saturated, or its haze (mean of the per-pixel minimum channel,
+/// relative to full scale) is above maxHaze.
+struct VisibilityConfig {
+    double minContrast{0.02};           ///< RMS contrast: std(luma) / full scale
+    double maxSaturatedFraction{0.25};  ///< of pixels with any channel at full scale
+    double maxHaze{0.6};                ///< dark-channel mean / full scale
+    bool operator==(const VisibilityConfig& o) const {
+        return minContrast == o.minContrast && maxSaturatedFraction == o.maxSaturatedFraction &&
+               maxHaze == o.maxHaze;
+    }
+};
+
+struct AnalysisConfig {
+    /// Stage names in order; see docs/config.md for the list and their rules.
+    std::vector<std::string> stages{"demosaic",        "lighting", "color_filter", "erode_restore",
+                                    "locate_features", "match",    "triangulate",  "visibility"};
+    DemosaicAlgorithm demosaic{DemosaicAlgorithm::Bilinear};
+    CentroidMode centroid{CentroidMode::IntensityWeighted};
+    TriangulationMode triangulation{TriangulationMode::Centroid};
+    VisibilityConfig visibility;
+
+    bool operator==(const AnalysisConfig& o) const {
+        return stages == o.stages && demosaic == o.demosaic && centroid == o.centroid &&
+               triangulation == o.triangulation && visibility == o.visibility;
+    }
+};
+
+}  // namespace avatar

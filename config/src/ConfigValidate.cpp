@@ -1,0 +1,390 @@
+#include "ConfigValidate.h"
+
+#include "ConfigText.h"
+
+#include <avatar/config/ConfigXml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <string_view>
+#include <utility>
+
+namespace avatar::config_internal {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kMaxImageSize = 16384;
+/// Largest element of |R R^T - I| accepted for a rotation matrix; generous
+/// enough for rotations printed with four decimals.
+constexpr double kRotationTolerance = 1e-3;
+
+std::string quote(std::string_view text) {
+    return "'" + std::string(text) + "'";
+}
+
+/// Checks with the paths of one section.
+class Checker {
+public:
+    explicit Checker(const ErrorSite& site) : site_(site) {}
+
+    [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+        site_.fail(path, problem);
+    }
+
+    void intBetween(int value, int lo, int hi, const std::string& path) const {
+        if (value < lo || value > hi) {
+            fail(path, "must be between " + std::to_string(lo) + " and " + std::to_string(hi) +
+                           ", got " + std::to_string(value));
+        }
+    }
+
+    void finite(double value, const std::string& path, const std::string& what = {}) const {
+        if (!std::isfinite(value)) {
+            fail(path, prefix(what) + "must be a finite number, got " + formatDouble(value));
+        }
+    }
+
+    /// lo <= value <= hi (hi may be infinite).
+    void between(double value, double lo, double hi, const std::string& path,
+                 const std::string& what = {}) const {
+        finite(value, path, what);
+        if (value < lo || value > hi) {
+            if (hi == kInf) {
+                fail(path, prefix(what) + "must be >= " + formatDouble(lo) + ", got " + formatDouble(value));
+            }
+            fail(path, prefix(what) + "must be between " + formatDouble(lo) + " and " + formatDouble(hi) +
+                           ", got " + formatDouble(value));
+        }
+    }
+
+    void positive(double value, const std::string& path, const std::string& what = {}) const {
+        finite(value, path, what);
+        if (!(value > 0.0)) {
+            fail(path, prefix(what) + "must be > 0, got " + formatDouble(value));
+        }
+    }
+
+    /// Both ends within [lo, hi] and, when @p ordered, min <= max.
+    void range(const Range& r, double lo, double hi, const std::string& path, bool ordered = true) const {
+        between(r.min, lo, hi, path + "/min");
+        between(r.max, lo, hi, path + "/max");
+        if (ordered && r.min > r.max) {
+            fail(path, "min " + formatDouble(r.min) + " is above max " + formatDouble(r.max));
+        }
+    }
+
+    template <std::size_t N>
+    void allFinite(const std::array<double, N>& values, const std::string& path) const {
+        for (std::size_t i = 0; i < N; ++i) {
+            finite(values[i], path, component(i));
+        }
+    }
+
+    /// Free text that survives the XML round trip unchanged.
+    void text(const std::string& value, const std::string& path) const {
+        for (char c : value) {
+            const auto u = static_cast<unsigned char>(c);
+            if (u < 0x20 || u == 0x7f) {
+                fail(path, "must not contain control characters, got " + quote(escaped(value)));
+            }
+        }
+        if (!value.empty() && (value.front() == ' ' || value.back() == ' ')) {
+            fail(path, "must not begin or end with a space, got " + quote(value));
+        }
+    }
+
+    /// @p value is one of the enumerators (a value cast from an integer may not be).
+    template <typename Enum>
+    void enumerator(Enum value, const std::string& path) const {
+        if (!enumWord(value)) {
+            fail(path, std::string("is not a ") + EnumWords<Enum>::type + " value (" +
+                           std::to_string(static_cast<int>(value)) + ")");
+        }
+    }
+
+    static std::string component(std::size_t index) {
+        return "component " + std::to_string(index + 1);
+    }
+
+private:
+    static std::string prefix(const std::string& what) { return what.empty() ? what : what + " "; }
+
+    static std::string escaped(const std::string& value) {
+        std::string out;
+        for (char c : value) {
+            const auto u = static_cast<unsigned char>(c);
+            if (u < 0x20 || u == 0x7f) {
+                static const char* const hex = "0123456789abcdef";
+                out += "\\x";
+                out += hex[u >> 4];
+                out += hex[u & 0xf];
+            } else {
+                out += c;
+            }
+        }
+        return out;
+    }
+
+    const ErrorSite& site_;
+};
+
+void validateFeature(const Checker& k, const CameraFeature& f, const std::string& path) {
+    k.finite(f.value, path + "/value");
+}
+
+void validateCamera(const Checker& k, const CameraHardwareConfig& c) {
+    const std::string p = "/avatar/camera";
+    k.intBetween(c.width, 1, kMaxImageSize, p + "/width");
+    k.intBetween(c.height, 1, kMaxImageSize, p + "/height");
+    k.intBetween(c.bitDepth, 1, 16, p + "/bitDepth");
+    if (c.channels != 1 && c.channels != 3) {
+        k.fail(p + "/channels", "must be 1 or 3, got " + std::to_string(c.channels));
+    }
+    if (c.bayer && c.channels != 1) {
+        k.fail(p + "/channels", "must be 1 when <bayer> is true, got " + std::to_string(c.channels));
+    }
+    k.enumerator(c.bayerPattern, p + "/bayerPattern");
+    k.text(c.leftCameraId, p + "/leftCameraId");
+    k.text(c.rightCameraId, p + "/rightCameraId");
+    if (!c.leftCameraId.empty() && c.leftCameraId == c.rightCameraId) {
+        k.fail(p + "/rightCameraId", "is the same as <leftCameraId> " + quote(c.leftCameraId));
+    }
+    const std::string f = p + "/features";
+    validateFeature(k, c.features.exposure, f + "/exposure");
+    validateFeature(k, c.features.shutter, f + "/shutter");
+    validateFeature(k, c.features.gain, f + "/gain");
+    k.finite(c.features.whiteBalance.blueU, f + "/whiteBalance/blueU");
+    k.finite(c.features.whiteBalance.redV, f + "/whiteBalance/redV");
+    validateFeature(k, c.features.brightness, f + "/brightness");
+    validateFeature(k, c.features.gamma, f + "/gamma");
+}
+
+bool isTargetName(const std::string& name) {
+    return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+        return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+               c == '-';
+    });
+}
+
+void validateWindow(const Checker& k, const SearchWindow& w, const CameraHardwareConfig& camera,
+                    const std::string& p) {
+    k.intBetween(w.x, 0, kMaxImageSize, p + "/x");
+    k.intBetween(w.y, 0, kMaxImageSize, p + "/y");
+    k.intBetween(w.width, 0, kMaxImageSize, p + "/width");
+    k.intBetween(w.height, 0, kMaxImageSize, p + "/height");
+    if ((w.width == 0) != (w.height == 0)) {
+        k.fail(p, "width and height must both be 0 (whole image) or both be > 0, got " +
+                      std::to_string(w.width) + " x " + std::to_string(w.height));
+    }
+    if (w.wholeImage()) {
+        return;
+    }
+    if (w.x + w.width > camera.width) {
+        k.fail(p + "/width", "x + width = " + std::to_string(w.x + w.width) + " exceeds the image width " +
+                                 std::to_string(camera.width));
+    }
+    if (w.y + w.height > camera.height) {
+        k.fail(p + "/height", "y + height = " + std::to_string(w.y + w.height) +
+                                  " exceeds the image height " + std::to_string(camera.height));
+    }
+}
+
+void validateTarget(const Checker& k, const TargetType& t, const CameraHardwareConfig& camera,
+                    const std::string& p) {
+    if (!isTargetName(t.name)) {
+        k.fail(p + "/@name", "must be a non-empty name of letters, digits, '_' and '-', got " + quote(t.name));
+    }
+    k.enumerator(t.filter, p + "/filter");
+    k.range(t.redGreen, 0.0, kInf, p + "/redGreen");
+    k.range(t.redBlue, 0.0, kInf, p + "/redBlue");
+    k.range(t.blueGreen, 0.0, kInf, p + "/blueGreen");
+    if (t.brightness) {
+        k.range(*t.brightness, 0.0, kInf, p + "/brightness");
+    }
+    // A hue range with min > max wraps through 0.
+    k.range(t.hsv.hue, 0.0, 360.0, p + "/hsv/hue", /*ordered=*/false);
+    k.range(t.hsv.saturation, 0.0, 1.0, p + "/hsv/saturation");
+    k.range(t.hsv.value, 0.0, 1.0, p + "/hsv/value");
+    k.intBetween(t.erodeKernelSize, 1, 31, p + "/erodeKernelSize");
+    if (t.erodeKernelSize % 2 == 0) {
+        k.fail(p + "/erodeKernelSize", "must be odd, got " + std::to_string(t.erodeKernelSize));
+    }
+    k.range(t.area, 0.0, kInf, p + "/area");
+    k.range(t.aspectRatio, 0.0, kInf, p + "/aspectRatio");
+    k.range(t.areaRatio, 0.0, 1.0, p + "/areaRatio");
+    validateWindow(k, t.window, camera, p + "/window");
+    k.enumerator(t.shape, p + "/shape");
+}
+
+void validateTargets(const Checker& k, const TargetConfig& targets, const CameraHardwareConfig& camera) {
+    const std::string p = "/avatar/targets";
+    if (targets.targets.empty()) {
+        k.fail(p, "at least one <target> is required");
+    }
+    for (std::size_t i = 0; i < targets.targets.size(); ++i) {
+        const std::string tp = p + "/target[" + std::to_string(i + 1) + "]";
+        validateTarget(k, targets.targets[i], camera, tp);
+        for (std::size_t j = 0; j < i; ++j) {
+            if (targets.targets[j].name == targets.targets[i].name) {
+                k.fail(tp + "/@name", "duplicate target name " + quote(targets.targets[i].name) +
+                                          " (also target[" + std::to_string(j + 1) + "])");
+            }
+        }
+    }
+}
+
+void validateMatch(const Checker& k, const MatchConfig& m) {
+    const std::string p = "/avatar/match";
+    k.enumerator(m.method, p + "/method");
+    k.range(Range{m.boxDxMin, m.boxDxMax}, -kInf, kInf, p + "/box/dx");
+    k.range(Range{m.boxDyMin, m.boxDyMax}, -kInf, kInf, p + "/box/dy");
+    k.positive(m.maxEpipolarDistancePx, p + "/epipolarLine/maxDistancePx");
+    k.positive(m.minRangeMm, p + "/epipolarLine/rangeMm/min");
+    k.range(Range{m.minRangeMm, m.maxRangeMm}, 0.0, kInf, p + "/epipolarLine/rangeMm");
+    const std::string s = p + "/shape";
+    k.between(m.shape.magnitudeWeight, 0.0, kInf, s + "/magnitudeWeight");
+    k.between(m.shape.directionWeight, 0.0, kInf, s + "/directionWeight");
+    if (m.shape.magnitudeWeight == 0.0 && m.shape.directionWeight == 0.0) {
+        k.fail(s, "magnitudeWeight and directionWeight must not both be 0");
+    }
+    k.positive(m.shape.maxError, s + "/maxError");
+    k.between(m.shape.maxAreaRatio, 1.0, kInf, s + "/maxAreaRatio");
+}
+
+void validateIntrinsics(const Checker& k, const CameraIntrinsics& in, const CameraHardwareConfig& camera,
+                        const std::string& p) {
+    for (std::size_t i = 0; i < 2; ++i) {
+        k.positive(in.fc[i], p + "/fc", Checker::component(i));
+    }
+    k.between(in.cc[0], 0.0, camera.width, p + "/cc", Checker::component(0) + " (x, image width " +
+                                                          std::to_string(camera.width) + ")");
+    k.between(in.cc[1], 0.0, camera.height, p + "/cc", Checker::component(1) + " (y, image height " +
+                                                           std::to_string(camera.height) + ")");
+    k.finite(in.alphaC, p + "/alphaC");
+    k.allFinite(in.kc, p + "/kc");
+}
+
+void validateRotation(const Checker& k, const std::array<double, 9>& r, const std::string& path) {
+    k.allFinite(r, path);
+    double worst = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            double dot = 0.0;
+            for (int c = 0; c < 3; ++c) {
+                dot += r[static_cast<std::size_t>(3 * i + c)] * r[static_cast<std::size_t>(3 * j + c)];
+            }
+            worst = std::max(worst, std::abs(dot - (i == j ? 1.0 : 0.0)));
+        }
+    }
+    if (worst > kRotationTolerance) {
+        k.fail(path, "is not a rotation matrix: largest element of |R R^T - I| is " + formatDouble(worst) +
+                         ", more than " + formatDouble(kRotationTolerance));
+    }
+    const double det = r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) +
+                       r[2] * (r[3] * r[7] - r[4] * r[6]);
+    if (det < 0.0) {
+        k.fail(path, "is not a rotation matrix: determinant " + formatDouble(det) + " (a reflection)");
+    }
+}
+
+void validateStereo(const Checker& k, const StereoSystemConfig& s, const CameraHardwareConfig& camera) {
+    const std::string p = "/avatar/stereo";
+    validateIntrinsics(k, s.left, camera, p + "/left");
+    validateIntrinsics(k, s.right, camera, p + "/right");
+    k.allFinite(s.om, p + "/om");
+    k.allFinite(s.translationMm, p + "/translationMm");
+    const auto& t = s.translationMm;
+    if (t[0] == 0.0 && t[1] == 0.0 && t[2] == 0.0) {
+        k.fail(p + "/translationMm", "the baseline must not be zero");
+    }
+    if (s.baseTVision) {
+        validateRotation(k, s.baseTVision->rotation, p + "/baseTVision/rotation");
+        k.allFinite(s.baseTVision->translationMm, p + "/baseTVision/translationMm");
+    }
+}
+
+void validateFalloff(const Checker& k, const FalloffChannel& f, const std::string& p) {
+    k.positive(f.coefficient, p + "/coefficient");
+    k.finite(f.exponent, p + "/exponent");
+}
+
+void validateLighting(const Checker& k, const LightingConfig& l) {
+    const std::string p = "/avatar/lighting";
+    for (std::size_t i = 0; i < 3; ++i) {
+        k.positive(l.gainsRgb[i], p + "/frameAverage/gainsRgb", Checker::component(i));
+    }
+    k.allFinite(l.patternCentrePx, p + "/pattern/centrePx");
+    validateFalloff(k, l.red, p + "/pattern/red");
+    validateFalloff(k, l.green, p + "/pattern/green");
+    validateFalloff(k, l.blue, p + "/pattern/blue");
+    k.text(l.templateImagePath, p + "/pattern/templateImage");
+}
+
+bool isStageName(const std::string& name) {
+    return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+    });
+}
+
+void validateAnalysis(const Checker& k, const AnalysisConfig& a) {
+    const std::string p = "/avatar/analysis";
+    // Which names exist and their order are the pipeline's rules (it can be
+    // given extra stages); here only the form of the list.
+    if (a.stages.empty()) {
+        k.fail(p + "/stages", "at least one stage is required");
+    }
+    for (std::size_t i = 0; i < a.stages.size(); ++i) {
+        if (!isStageName(a.stages[i])) {
+            k.fail(p + "/stages", "stage " + quote(a.stages[i]) +
+                                      " is not a name of lower-case letters, digits and '_'");
+        }
+        for (std::size_t j = 0; j < i; ++j) {
+            if (a.stages[j] == a.stages[i]) {
+                k.fail(p + "/stages", "stage " + quote(a.stages[i]) + " appears twice");
+            }
+        }
+    }
+    k.enumerator(a.demosaic, p + "/demosaic");
+    k.enumerator(a.centroid, p + "/centroid");
+    k.enumerator(a.triangulation, p + "/triangulation");
+    const std::string v = p + "/visibility";
+    k.between(a.visibility.minContrast, 0.0, 1.0, v + "/minContrast");
+    k.between(a.visibility.maxSaturatedFraction, 0.0, 1.0, v + "/maxSaturatedFraction");
+    k.between(a.visibility.maxHaze, 0.0, 1.0, v + "/maxHaze");
+}
+
+}  // namespace
+
+int ErrorSite::lineOf(const std::string& path) const {
+    if (lines_ == nullptr) {
+        return 0;
+    }
+    std::string p = path;
+    while (!p.empty()) {
+        if (const auto it = lines_->find(p); it != lines_->end()) {
+            return it->second;
+        }
+        const std::size_t slash = p.rfind('/');
+        p.erase(slash == std::string::npos ? 0 : slash);
+    }
+    return 0;
+}
+
+void ErrorSite::fail(const std::string& path, const std::string& problem) const {
+    throw ConfigError(source_, lineOf(path), path, problem);
+}
+
+void validate(const AvatarConfig& config, const ErrorSite& site) {
+    const Checker k(site);
+    validateCamera(k, config.camera);
+    validateTargets(k, config.targets, config.camera);
+    validateMatch(k, config.match);
+    validateStereo(k, config.stereo, config.camera);
+    validateLighting(k, config.lighting);
+    validateAnalysis(k, config.analysis);
+}
+
+}  // namespace avatar::config_internal
