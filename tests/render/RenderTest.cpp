@@ -232,7 +232,7 @@ TEST(Render, ArmMarkerNeedsARegistration) {
     scene.armMarkers[0].positionBaseMm = {0, 0, 0};
     const auto r = render::render(scene, config, test::noiseFree(32, 24));
     const auto& arm = r.truth.target("arm");
-    EXPECT_EQ(arm.type, "arm");
+    EXPECT_EQ(arm.type, "arm_marker");
     EXPECT_NEAR(arm.centreLeftMm.z, 800.0, 1e-12);
     ASSERT_TRUE(arm.centreBaseMm);
     EXPECT_NEAR(cv::norm(*arm.centreBaseMm), 0.0, 1e-12);

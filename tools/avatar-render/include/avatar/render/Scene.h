@@ -84,11 +84,11 @@ struct TargetSpec {
 /// (from the StereoSystemConfig, or else the scene's <registration>).
 struct ArmMarker {
     std::string name{"arm"};
-    std::string type{"arm"};
+    std::string type{"arm_marker"};
     cv::Vec3d positionBaseMm{0.0, 0.0, 0.0};
     std::array<double, 3> omBase{0.0, 0.0, 0.0};  ///< orientation in the base frame
     cv::Vec3d halfSizeMm{20.0, 15.0, 10.0};
-    Rgb albedo{0.83, 0.62, 0.18};  ///< gold
+    Rgb albedo{0.85, 0.46, 0.28};  ///< gold (fits data/config/scorpion.xml's arm_marker filter)
 };
 
 /// Anything that is not a target: occluders, rocks, similar-coloured distractors.
