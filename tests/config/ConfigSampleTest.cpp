@@ -86,10 +86,10 @@ TEST(ConfigSamples, Scorpion) {
                 disjoint(duck->blueGreen, marker->blueGreen));
 
     EXPECT_EQ(c.match.method, MatchMethod::EpipolarBox);
-    EXPECT_EQ(c.match.boxDxMin, 37.0);
-    EXPECT_EQ(c.match.boxDxMax, 280.0);
-    EXPECT_EQ(c.match.boxDyMin, -8.0);
-    EXPECT_EQ(c.match.boxDyMax, 8.0);
+    EXPECT_EQ(c.match.boxDxMin, 15.0);
+    EXPECT_EQ(c.match.boxDxMax, 310.0);
+    EXPECT_EQ(c.match.boxDyMin, -25.0);
+    EXPECT_EQ(c.match.boxDyMax, 40.0);
     // The box covers 0.4 m .. 3 m for this calibration: dx = fx * |T| / Z.
     const double baseline = std::hypot(c.stereo.translationMm[0], c.stereo.translationMm[1], c.stereo.translationMm[2]);
     EXPECT_LE(c.match.boxDxMin, c.stereo.left.fc[0] * baseline / 3000.0);
