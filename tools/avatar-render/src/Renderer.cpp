@@ -428,6 +428,8 @@ public:
         const double t = targetFirst ? tTarget : tOther;
         s.sig.object = hit->object;
         s.sig.part = hit->part;
+        // Only a board's part (checker colour) depends on where it is hit.
+        if (!shade && hit->kind != PrimKind::Board) return s;
         const cv::Vec3d x = o + t * d;
         cv::Vec3d n;
         Rgb albedo;
