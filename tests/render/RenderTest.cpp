@@ -3,11 +3,15 @@
 #include <avatar/analyze/CameraModel.h>
 #include <avatar/analyze/StereoCoordinateCalculator.h>
 #include <avatar/common/ImageUtils.h>
+#include <avatar/common/StereoImagePairFileIO.h>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <filesystem>
+
+#include <unistd.h>
 
 namespace avatar {
 namespace {
@@ -15,7 +19,7 @@ namespace {
 using render::Scene;
 using render::Shape;
 using render::TargetSpec;
-using render::Visibility;
+using render::TargetVisibility;
 
 TargetSpec target(const std::string& name, Shape shape, cv::Vec3d centre, double radius) {
     TargetSpec t;
@@ -59,7 +63,7 @@ TEST(Render, FrontoParallelDiscCentroidIsItsProjectedCentre) {
     const auto result = render::render(scene, test::scorpion(), test::noiseFree());
     for (const auto& t : result.truth.targets) {
         for (const render::TargetView* v : {&t.left, &t.right}) {
-            ASSERT_EQ(v->visibility, Visibility::Full) << t.name;
+            ASSERT_EQ(v->visibility, TargetVisibility::Full) << t.name;
             ASSERT_TRUE(v->silhouetteCentroidPx && v->projectedCentrePx);
             EXPECT_LT(distance(*v->silhouetteCentroidPx, *v->projectedCentrePx), 0.02) << t.name;
         }
@@ -136,7 +140,7 @@ TEST(Render, LambertianLightAtTheCameraStrobeAndWater) {
             << "channel " << c;
 }
 
-TEST(Render, BitDepthsAndBigEndianLayout) {
+TEST(Render, BitDepths) {
     const Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
     for (int bits : {8, 12, 16}) {
         auto options = test::noiseFree(32, 24);
@@ -150,6 +154,25 @@ TEST(Render, BitDepthsAndBigEndianLayout) {
         EXPECT_EQ(minV, expected);
         EXPECT_EQ(maxV, expected);
     }
+}
+
+TEST(Render, RawFilesRoundTripInBothByteOrders) {
+    const Scene scene = test::flatScene({0.5, 0.3, 0.2}, 0.7);
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("avatar_render_test_" + std::to_string(::getpid()));
+    for (ByteOrder order : {ByteOrder::Little, ByteOrder::Big}) {
+        auto options = test::noiseFree(40, 30);
+        options.sensor.bitDepth = 12;
+        options.sensor.fileByteOrder = order;
+        const auto r = render::render(scene, test::scorpion(), options);
+        const auto files = render::writeRender(r, options.sensor, dir, 3, 7, false);
+        EXPECT_EQ(files.leftRaw.filename().string(),
+                  std::string("L_00003_00007_40x30_12b_1c_BG_") + (order == ByteOrder::Big ? "be" : "le") + ".raw");
+        const cv::Mat back = StereoImagePairFileIO::readRaw(files.rightRaw);
+        EXPECT_EQ(cv::norm(back, r.pair.right(), cv::NORM_INF), 0.0);
+        EXPECT_TRUE(std::filesystem::exists(files.groundTruth));
+    }
+    std::filesystem::remove_all(dir);
 }
 
 TEST(Render, DeterministicForASeed) {
@@ -192,14 +215,14 @@ TEST(Render, OcclusionVisibility) {
     scene.occluders = {o, wall};
     const auto r = render::render(scene, test::scorpion(), test::noiseFree());
     const auto& behind = r.truth.target("behind");
-    EXPECT_EQ(behind.left.visibility, Visibility::Partial);
+    EXPECT_EQ(behind.left.visibility, TargetVisibility::Partial);
     EXPECT_TRUE(behind.left.occluded);
     EXPECT_FALSE(behind.left.atBorder);
-    EXPECT_EQ(behind.right.visibility, Visibility::Full);
-    EXPECT_EQ(r.truth.target("free").left.visibility, Visibility::Full);
-    EXPECT_EQ(r.truth.target("free").right.visibility, Visibility::Full);
-    EXPECT_EQ(r.truth.target("hidden").left.visibility, Visibility::None);
-    EXPECT_EQ(r.truth.target("hidden").right.visibility, Visibility::None);
+    EXPECT_EQ(behind.right.visibility, TargetVisibility::Full);
+    EXPECT_EQ(r.truth.target("free").left.visibility, TargetVisibility::Full);
+    EXPECT_EQ(r.truth.target("free").right.visibility, TargetVisibility::Full);
+    EXPECT_EQ(r.truth.target("hidden").left.visibility, TargetVisibility::None);
+    EXPECT_EQ(r.truth.target("hidden").right.visibility, TargetVisibility::None);
     EXPECT_FALSE(r.truth.target("hidden").left.silhouetteCentroidPx);
     EXPECT_EQ(r.truth.target("hidden").left.areaPx, 0.0);
 }
@@ -213,13 +236,13 @@ TEST(Render, BorderVisibility) {
                      target("outside", Shape::Sphere, {0, 2000, 1000}, 40)};
     const auto r = render::render(scene, test::scorpion(), test::noiseFree());
     const auto& edge = r.truth.target("edge");
-    EXPECT_EQ(edge.left.visibility, Visibility::Partial);
+    EXPECT_EQ(edge.left.visibility, TargetVisibility::Partial);
     EXPECT_TRUE(edge.left.atBorder);
     EXPECT_FALSE(edge.left.occluded);
-    EXPECT_EQ(edge.right.visibility, Visibility::None);
-    EXPECT_EQ(r.truth.target("inside").left.visibility, Visibility::Full);
-    EXPECT_EQ(r.truth.target("outside").left.visibility, Visibility::None);
-    EXPECT_EQ(r.truth.target("outside").right.visibility, Visibility::None);
+    EXPECT_EQ(edge.right.visibility, TargetVisibility::None);
+    EXPECT_EQ(r.truth.target("inside").left.visibility, TargetVisibility::Full);
+    EXPECT_EQ(r.truth.target("outside").left.visibility, TargetVisibility::None);
+    EXPECT_EQ(r.truth.target("outside").right.visibility, TargetVisibility::None);
 }
 
 TEST(Render, ArmMarkerNeedsARegistration) {

@@ -64,7 +64,7 @@ TEST(SceneSet, OneCameraOcclusionIsReported) {
     const auto r = render::render(scene, test::scorpion(), test::noiseFree());
     const auto& t = r.truth.targets.at(0);
     const bool fromRight = scene.occluders[0].name.rfind("occluder_right_", 0) == 0;
-    EXPECT_EQ((fromRight ? t.right : t.left).visibility, render::Visibility::Partial);
+    EXPECT_EQ((fromRight ? t.right : t.left).visibility, render::TargetVisibility::Partial);
     EXPECT_TRUE((fromRight ? t.right : t.left).occluded);
     EXPECT_FALSE((fromRight ? t.left : t.right).occluded);
 }

@@ -43,11 +43,11 @@ void RenderOptions::validate() const {
         fail("supersampling", "expected 1..16, got " + std::to_string(supersampling));
 }
 
-std::string_view toString(Visibility visibility) {
+std::string_view toString(TargetVisibility visibility) {
     switch (visibility) {
-        case Visibility::Full: return "full";
-        case Visibility::Partial: return "partial";
-        case Visibility::None: return "none";
+        case TargetVisibility::Full: return "full";
+        case TargetVisibility::Partial: return "partial";
+        case TargetVisibility::None: return "none";
     }
     return "?";
 }
@@ -639,9 +639,9 @@ TargetView viewOf(const TargetAccumulator& a, const std::optional<cv::Point2d>& 
     if (a.visible > 0.0) v.silhouetteCentroidPx = cv::Point2d(a.sumX / a.visible, a.sumY / a.visible);
     v.occluded = a.potential - a.visible > 1e-9 * std::max(1.0, a.potential);
     v.atBorder = a.atBorder;
-    v.visibility = a.visible <= 0.0 ? Visibility::None
-                   : (v.occluded || v.atBorder) ? Visibility::Partial
-                                                : Visibility::Full;
+    v.visibility = a.visible <= 0.0 ? TargetVisibility::None
+                   : (v.occluded || v.atBorder) ? TargetVisibility::Partial
+                                                : TargetVisibility::Full;
     return v;
 }
 

@@ -53,12 +53,12 @@ struct RenderOptions {
     void validate() const;
 };
 
-enum class Visibility {
+enum class TargetVisibility {
     Full,     ///< entirely in the image and unoccluded
     Partial,  ///< cut by the image border or partly hidden behind something
     None      ///< not seen at all
 };
-std::string_view toString(Visibility visibility);
+std::string_view toString(TargetVisibility visibility);
 
 /// One target as one camera sees it. Pixel coordinates: integer = pixel centre.
 struct TargetView {
@@ -67,7 +67,7 @@ struct TargetView {
     /// Coverage-weighted centroid of the visible silhouette; nullopt when not seen.
     std::optional<cv::Point2d> silhouetteCentroidPx;
     double areaPx{0.0};  ///< visible silhouette area in pixels (coverage sum)
-    Visibility visibility{Visibility::None};
+    TargetVisibility visibility{TargetVisibility::None};
     bool occluded{false};  ///< part of it is hidden by something nearer
     bool atBorder{false};  ///< its silhouette reaches the outermost pixel row or column
 };
