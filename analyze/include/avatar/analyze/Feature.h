@@ -22,7 +22,8 @@ enum BoundaryPoint : int {
     kLeftTop = 7       ///< 8: smallest y among the pixels of the leftmost column
 };
 
-/// One 8-connected feature of a filtered image.
+/// One 8-connected feature of a filtered image. All positions are full-image
+/// pixel coordinates (x to the right, y downwards), whatever the search window.
 struct Feature {
     int area{0};                        ///< number of pixels
     cv::Point2d centroid;               ///< mean pixel position (Figure 3-13)
