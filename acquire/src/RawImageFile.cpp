@@ -73,13 +73,7 @@ std::uint32_t crc32(const void* data, std::size_t size) {
 }
 
 std::string imageFileName(const RawImageName& name, Compression compression) {
-    if (name.group > 99999 || name.member > 99999)
-        throw InvalidArgument("image file name: group " + std::to_string(name.group) + " member " +
-                              std::to_string(name.member) + " exceed the five digits (99999) of the name");
-    name.geometry.validate();
-    std::string fileName = name.str();  // ends in ".raw"
-    if (compression == Compression::Png) fileName.replace(fileName.size() - 4, 4, ".png");
-    return fileName;
+    return name.str(compression == Compression::Png ? ".png" : ".raw");
 }
 
 RawImageGeometry geometryOf(const cv::Mat& image, const PairLayout& layout, ByteOrder byteOrder) {

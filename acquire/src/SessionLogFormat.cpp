@@ -358,10 +358,6 @@ void checkFileName(std::string_view field, const std::string& fileName, Side sid
     } catch (const FormatError& e) {
         throw FormatError("field '" + std::string(field) + "': " + e.what());
     }
-    const std::string canonical = name.str();  // ends in ".raw"; the extension was checked by parse()
-    if (canonical.compare(0, canonical.size() - 4, fileName, 0, fileName.size() - 4) != 0)
-        throw FormatError("field '" + std::string(field) + "': " + quote(fileName, 200) +
-                          " is not in canonical form (expected '" + canonical + "' or its .png variant)");
     if (name.side != side)
         throw FormatError("field '" + std::string(field) + "': " + quote(fileName, 200) + " is not a " +
                           (side == Side::Left ? "left (L_)" : "right (R_)") + " image file");

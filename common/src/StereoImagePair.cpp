@@ -38,6 +38,11 @@ void checkImages(const cv::Mat& left, const cv::Mat& right, const PairLayout& la
     if (layout.bitDepth < 1 || layout.bitDepth > container)
         throw InvalidArgument("StereoImagePair: bit depth " + std::to_string(layout.bitDepth) +
                               " does not fit a " + std::to_string(container) + "-bit container");
+    // One rule for every layer: up to 8 significant bits live in 8-bit samples,
+    // 9 to 16 in 16-bit samples (raw file names rely on it).
+    if (container == 16 && layout.bitDepth <= 8)
+        throw InvalidArgument("StereoImagePair: bit depth " + std::to_string(layout.bitDepth) +
+                              " belongs in an 8-bit container, not 16-bit");
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cstdio>
 #include <fstream>
@@ -33,6 +34,9 @@ std::uint32_t parseNumber(const std::string& name, const std::string& part, cons
     const char* first = part.data();
     const char* last = part.data() + part.size();
     auto [ptr, ec] = std::from_chars(first, last, value);
+    const bool leadingZero = digits == 0 && part.size() > 1 && part[0] == '0';
+    if (leadingZero)
+        throw FormatError("raw file name '" + name + "': " + what + " '" + part + "' has a leading zero");
     if (part.empty() || ec != std::errc() || ptr != last || (digits != 0 && part.size() != digits))
         throw FormatError("raw file name '" + name + "': " + what + " '" + part + "' is not " +
                           (digits != 0 ? std::to_string(digits) + " digits" : "a number"));
@@ -78,7 +82,13 @@ void RawImageGeometry::validate() const {
                               " outside 1..16");
 }
 
-std::string RawImageName::str() const {
+std::string RawImageName::str(std::string_view extension) const {
+    if (group > 99999 || member > 99999)
+        throw InvalidArgument("raw file name: group " + std::to_string(group) + " member " +
+                              std::to_string(member) + " exceed the five digits of the name");
+    if (extension != ".raw" && extension != ".png")
+        throw InvalidArgument("raw file name: extension '" + std::string(extension) + "' is not .raw or .png");
+    geometry.validate();
     char numbers[32];
     std::snprintf(numbers, sizeof numbers, "_%05u_%05u_", group, member);
     std::string layout;
@@ -90,7 +100,7 @@ std::string RawImageName::str() const {
     return std::string(toString(side)) + numbers + std::to_string(geometry.width) + "x" +
            std::to_string(geometry.height) + "_" + std::to_string(geometry.bitDepth) + "b_" +
            std::to_string(geometry.channels()) + "c_" + layout + "_" +
-           std::string(toString(geometry.byteOrder)) + ".raw";
+           std::string(toString(geometry.byteOrder)) + std::string(extension);
 }
 
 RawImageName RawImageName::parse(const std::string& fileName) {

@@ -63,11 +63,11 @@ TEST(ImageFileName, RejectsNumbersBeyondFiveDigits) {
     auto n = makeName(Side::Left, 100000, 1, 4, 4, 8, PixelFormat::Mono, BayerPattern::BG,
                       ByteOrder::Little);
     EXPECT_EQ(messageOf<InvalidArgument>([&] { imageFileName(n, Compression::None); }),
-              "image file name: group 100000 member 1 exceed the five digits (99999) of the name");
+              "raw file name: group 100000 member 1 exceed the five digits of the name");
     n.group = 1;
     n.member = 123456;
     EXPECT_EQ(messageOf<InvalidArgument>([&] { imageFileName(n, Compression::None); }),
-              "image file name: group 1 member 123456 exceed the five digits (99999) of the name");
+              "raw file name: group 1 member 123456 exceed the five digits of the name");
 }
 
 TEST(GeometryOf, RejectsContainersTheNameCannotDescribe) {

@@ -224,8 +224,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadField{"FileNameThatDoesNotParse", "leftFile=L_00001_00001_8x6", "leftFile=L_00001_00001_8by6",
                  "field 'leftFile': raw file name 'L_00001_00001_8by6_12b_1c_GB_le.raw': size '8by6' is not WxH"},
         BadField{"NonCanonicalFileName", "leftFile=L_00001_00001_8x6", "leftFile=L_00001_00001_08x6",
-                 "field 'leftFile': 'L_00001_00001_08x6_12b_1c_GB_le.raw' is not in canonical form (expected "
-                 "'L_00001_00001_8x6_12b_1c_GB_le.raw' or its .png variant)"},
+                 "field 'leftFile': raw file name 'L_00001_00001_08x6_12b_1c_GB_le.raw': width '08' has a "
+                 "leading zero"},
         BadField{"MissingField", " member=1", "",
                  "expected field 'member=' after field 'group', found 'leftCamera=0x00b09d01004a5e2c'"},
         BadField{"RecordEndsEarly", " result=none", "", "record ends after field 'config'; expected field 'result='"},

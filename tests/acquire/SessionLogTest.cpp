@@ -256,7 +256,7 @@ TEST_F(SessionLogWriterRefuses, ToOverwriteAPairAlreadyRecorded) {
 
 TEST_F(SessionLogWriterRefuses, AGroupBeyondFiveDigits) {
     EXPECT_EQ(messageOf<InvalidArgument>([&] { writer.writePair(bayerPair(acquisition(100000, 0, 0), 0)); }),
-              "image file name: group 100000 member 0 exceed the five digits (99999) of the name");
+              "raw file name: group 100000 member 0 exceed the five digits of the name");
 }
 
 TEST_F(SessionLogWriterRefuses, AnEmptyPair) {

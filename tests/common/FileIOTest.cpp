@@ -192,6 +192,19 @@ TEST(RawImageName, FormatsAndParsesEveryField) {
     EXPECT_EQ(RawImageName::parse("L_00000_00001_8x8_10b_1c_MONO_le.raw").geometry.format, PixelFormat::Mono);
 }
 
+TEST(RawImageName, NamesThePngVariantAndRefusesWhatItCannotName) {
+    RawImageName n{Side::Left, 1, 42, {1280, 960, 16, PixelFormat::Bayer, BayerPattern::BG, ByteOrder::Little}};
+    EXPECT_EQ(n.str(".png"), "L_00001_00042_1280x960_16b_1c_BG_le.png");
+    EXPECT_THROW(n.str(".tif"), InvalidArgument);
+    n.member = 100000;
+    try {
+        n.str();
+        FAIL();
+    } catch (const InvalidArgument& e) {
+        EXPECT_STREQ(e.what(), "raw file name: group 1 member 100000 exceed the five digits of the name");
+    }
+}
+
 TEST(RawImageName, RejectsEachMalformedPartByName) {
     const std::vector<std::pair<std::string, std::string>> cases = {
         {"L_00001_00042_1280x960_16b_1c_BG_le.bin", "extension must be .raw or .png"},
@@ -202,6 +215,8 @@ TEST(RawImageName, RejectsEachMalformedPartByName) {
         {"L_00001_0004a_1280x960_16b_1c_BG_le.raw", "member '0004a' is not 5 digits"},
         {"L_00001_00042_1280-960_16b_1c_BG_le.raw", "size '1280-960' is not WxH"},
         {"L_00001_00042_x960_16b_1c_BG_le.raw", "width '' is not a number"},
+        {"L_00001_00042_01280x960_16b_1c_BG_le.raw", "width '01280' has a leading zero"},
+        {"L_00001_00042_1280x960_016b_1c_BG_le.raw", "bit depth '016' has a leading zero"},
         {"L_00001_00042_1280x960_16_1c_BG_le.raw", "bit depth '16' is not <n>b"},
         {"L_00001_00042_1280x960_17b_1c_BG_le.raw", "raw geometry: bit depth 17 outside 1..16"},
         {"L_00001_00042_0x960_16b_1c_BG_le.raw", "raw geometry: size 0x960 outside 1..65535"},

@@ -76,6 +76,8 @@ TEST(StereoImagePair, RejectsInconsistentImagesWithMessages) {
          "StereoImagePair: format bgr needs 3 channel(s), images have 1"},
         {"bits", cv::Mat(2, 2, CV_8UC1), cv::Mat(2, 2, CV_8UC1), {PixelFormat::Bayer, BayerPattern::BG, 12},
          "StereoImagePair: bit depth 12 does not fit a 8-bit container"},
+        {"wide", cv::Mat(2, 2, CV_16UC1), cv::Mat(2, 2, CV_16UC1), {PixelFormat::Bayer, BayerPattern::BG, 8},
+         "StereoImagePair: bit depth 8 belongs in an 8-bit container, not 16-bit"},
     };
     for (const auto& c : cases) {
         SCOPED_TRACE(c.name);

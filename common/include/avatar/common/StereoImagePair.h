@@ -17,6 +17,7 @@ namespace avatar {
 struct CameraStamp {
     std::string cameraId;       ///< hardware id of the camera (as in CameraHardwareConfig)
     std::int64_t timestampUs{0};  ///< capture time, microseconds since the Unix epoch
+    bool operator==(const CameraStamp& o) const { return cameraId == o.cameraId && timestampUs == o.timestampUs; }
 };
 
 /// Identity of an acquisition (thesis 4.2.2): the group number increments when
@@ -26,13 +27,17 @@ struct AcquisitionId {
     std::uint32_t member{0};
     CameraStamp left;
     CameraStamp right;
+    bool operator==(const AcquisitionId& o) const {
+        return group == o.group && member == o.member && left == o.left && right == o.right;
+    }
+    bool operator!=(const AcquisitionId& o) const { return !(*this == o); }
 };
 
 /// Geometry and meaning of the pixels of both images of a pair.
 struct PairLayout {
     PixelFormat format{PixelFormat::Bgr};
     BayerPattern bayerPattern{BayerPattern::BG};  ///< meaningful when format == Bayer
-    int bitDepth{8};  ///< significant bits per sample: 1..8 in 8-bit, 1..16 in 16-bit containers
+    int bitDepth{8};  ///< significant bits per sample: 1..8 in 8-bit, 9..16 in 16-bit containers
 };
 
 /// A left and a right image of equal size and type: 8 or 16 bits per sample,

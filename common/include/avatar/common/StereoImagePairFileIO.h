@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 namespace avatar {
 
@@ -46,10 +47,13 @@ struct RawImageName {
     std::uint32_t member{0};  ///< 0..99999
     RawImageGeometry geometry;
 
-    /// The file name (no directory).
-    std::string str() const;
-    /// Parses a file name (a directory part is ignored); throws avatar::FormatError
-    /// naming the name and the part that does not parse.
+    /// The file name (no directory) with @p extension ".raw" or ".png" (the
+    /// lossless archive variant). Throws avatar::InvalidArgument when group or
+    /// member exceed five digits, the geometry is invalid, or the extension is neither.
+    std::string str(std::string_view extension = ".raw") const;
+    /// Parses a file name (a directory part is ignored); only the canonical
+    /// spelling str() produces is accepted (no leading zeros in sizes). Throws
+    /// avatar::FormatError naming the name and the part that does not parse.
     static RawImageName parse(const std::string& fileName);
 };
 

@@ -67,6 +67,12 @@ struct VisionTargets {
     Visibility visibility{Visibility::Unknown};
     std::string visibilityReason; ///< e.g. "left: contrast 0.02 below 0.05"
 
+    bool operator==(const VisionTargets& o) const {
+        return iteration == o.iteration && acquisition == o.acquisition && targets == o.targets &&
+               timings == o.timings && visibility == o.visibility && visibilityReason == o.visibilityReason;
+    }
+    bool operator!=(const VisionTargets& o) const { return !(*this == o); }
+
     /// The targets of one type, in the order found.
     std::vector<VisionTarget> ofType(const std::string& type) const {
         std::vector<VisionTarget> out;
