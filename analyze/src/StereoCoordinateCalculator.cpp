@@ -15,8 +15,12 @@ StereoCoordinateCalculator::StereoCoordinateCalculator(const StereoSystemConfig&
 
 std::optional<StereoPoint> StereoCoordinateCalculator::triangulate(const cv::Point2d& leftPx,
                                                                    const cv::Point2d& rightPx) const {
-    const cv::Point2d xl = normalizePixel(config_.left, leftPx);
-    const cv::Point2d xr = normalizePixel(config_.right, rightPx);
+    return triangulateNormalized(normalizePixel(config_.left, leftPx),
+                                 normalizePixel(config_.right, rightPx));
+}
+
+std::optional<StereoPoint> StereoCoordinateCalculator::triangulateNormalized(
+    const cv::Point2d& xl, const cv::Point2d& xr) const {
     const cv::Vec3d Xl(xl.x, xl.y, 1.0);
     const cv::Vec3d Xr(xr.x, xr.y, 1.0);
     const cv::Vec3d& T = rightTLeftMm_;

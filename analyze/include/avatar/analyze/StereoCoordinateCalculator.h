@@ -35,6 +35,11 @@ public:
     std::optional<StereoPoint> triangulate(const cv::Point2d& leftPx,
                                            const cv::Point2d& rightPx) const;
 
+    /// The same on undistorted normalised coordinates (x/z, y/z) of each camera,
+    /// for points that are not pixels (e.g. a sphere's silhouette-cone axis).
+    std::optional<StereoPoint> triangulateNormalized(const cv::Point2d& leftNormalized,
+                                                     const cv::Point2d& rightNormalized) const;
+
     /// True when the configuration carries base_T_vision.
     bool hasRegistration() const { return baseTVision_.has_value(); }
     /// Maps a vision-frame point to the manipulator base frame; throws

@@ -1,0 +1,62 @@
+#pragma once
+/// @file AnalyzeStereoImagePair.h
+/// The analysis orchestrator (thesis 4.2.3): builds the stage chain from the
+/// configuration, runs it on each stereo pair with the left and right images
+/// processed in parallel, times every stage, keeps the images clients may ask
+/// for, and produces VisionTargets.
+
+#include <avatar/analyze/ProcessStereoImagePair.h>
+#include <avatar/common/StereoImagePair.h>
+#include <avatar/common/VisionTargets.h>
+#include <avatar/config/AvatarConfig.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace avatar {
+
+class AnalyzeStereoImagePair {
+public:
+    /// Builds the chain named by config.analysis.stages from @p registry.
+    /// Throws avatar::InvalidArgument for an unknown stage, a repeated stage, or
+    /// an order that cannot work (e.g. match before locate_features), naming it.
+    explicit AnalyzeStereoImagePair(const AvatarConfig& config,
+                                    const std::filesystem::path& configDir = {},
+                                    const StageRegistry& registry = StageRegistry::builtin());
+    ~AnalyzeStereoImagePair();
+    AnalyzeStereoImagePair(const AnalyzeStereoImagePair&) = delete;
+    AnalyzeStereoImagePair& operator=(const AnalyzeStereoImagePair&) = delete;
+
+    /// Analyses one pair. Results are identical whether the two images are
+    /// processed in parallel or not. Throws avatar::InvalidArgument when the
+    /// pair does not fit the configured camera (size, channels).
+    VisionTargets analyze(const StereoImagePair& pair, std::uint64_t iteration);
+
+    /// Runs both images on the calling thread (for tests and profiling).
+    void setParallel(bool parallel) { parallel_ = parallel; }
+
+    /// The last frame analysed (images, masks, features, matches, result).
+    const AnalysisFrame& lastFrame() const { return frame_; }
+    /// The pair as acquired.
+    const StereoImagePair& originalImages() const { return frame_.original; }
+    /// The working images with everything outside the union of the target masks set to 0.
+    StereoImagePair filteredImages() const;
+    /// The working images with features, boundary points, centroids and matches drawn.
+    StereoImagePair markedImages() const;
+
+    const std::vector<std::string>& stageNames() const { return names_; }
+
+private:
+    class Worker;
+    AvatarConfig config_;
+    std::vector<std::unique_ptr<ProcessStereoImagePair>> stages_;
+    std::vector<std::string> names_;
+    std::unique_ptr<Worker> worker_;
+    AnalysisFrame frame_;
+    bool parallel_{true};
+};
+
+}  // namespace avatar

@@ -1,0 +1,95 @@
+#pragma once
+/// @file ProcessStereoImagePair.h
+/// The stage interface of the analysis pipeline (thesis 4.2.3, Figure 4-5)
+/// and the frame the stages work on.
+///
+/// The thesis's stages take a SIP and give a SIP. Ours take an AnalysisFrame,
+/// which holds the pair being transformed plus what the later stages need
+/// (one mask and one feature list per target type and image, the matches, the
+/// result), so that a stage that produces features or targets fits the same
+/// interface as one that produces pixels.
+
+#include <avatar/analyze/Feature.h>
+#include <avatar/analyze/SIPFeatureMatcher.h>
+#include <avatar/common/StereoImagePair.h>
+#include <avatar/common/VisionTargets.h>
+#include <avatar/config/AvatarConfig.h>
+
+#include <opencv2/core/mat.hpp>
+
+#include <array>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace avatar {
+
+/// Work products of one image of the pair.
+struct ImageWork {
+    cv::Mat image;                                  ///< the working image (BGR after demosaic)
+    std::vector<cv::Mat> masks;                     ///< per target type, CV_8UC1 0/255
+    std::vector<std::vector<Feature>> features;     ///< per target type
+    double contrast{0.0};                           ///< visibility measures, see VisibilityConfig
+    double saturatedFraction{0.0};
+    double haze{0.0};
+};
+
+/// Everything the stages of one iteration read and write.
+struct AnalysisFrame {
+    StereoImagePair original;                       ///< as acquired, never modified
+    PairLayout layout;                              ///< of the working images
+    std::array<ImageWork, 2> images;                ///< indexed by Side
+    std::vector<std::vector<FeatureMatch>> matches; ///< per target type
+    VisionTargets result;
+
+    ImageWork& at(Side side) { return images[side == Side::Left ? 0 : 1]; }
+    const ImageWork& at(Side side) const { return images[side == Side::Left ? 0 : 1]; }
+};
+
+/// One stage. For each frame the orchestrator calls prepare() once, then
+/// processImage() for the left and the right image concurrently (two threads,
+/// only when hasImageWork()), then processPair() once. processImage() may only
+/// touch the ImageWork of its side and must not change shared state.
+class ProcessStereoImagePair {
+public:
+    virtual ~ProcessStereoImagePair() = default;
+    /// The name the configuration uses for this stage.
+    virtual std::string_view name() const = 0;
+    virtual bool hasImageWork() const { return false; }
+    virtual void prepare(AnalysisFrame& /*frame*/) {}
+    virtual void processImage(AnalysisFrame& /*frame*/, Side /*side*/) {}
+    virtual void processPair(AnalysisFrame& /*frame*/) {}
+};
+
+/// What a stage factory gets: the whole configuration (stages keep what they
+/// need) and the directory relative paths in it are resolved against.
+struct StageContext {
+    const AvatarConfig& config;
+    std::string configDir;
+};
+
+using StageFactory = std::function<std::unique_ptr<ProcessStereoImagePair>(const StageContext&)>;
+
+/// Stage names to factories. Registration is explicit (no self-registering
+/// statics, which a static library can lose at link time).
+class StageRegistry {
+public:
+    /// A registry holding the built-in stages: demosaic, lighting,
+    /// color_filter, erode_restore, locate_features, match, triangulate, visibility.
+    static StageRegistry builtin();
+
+    /// Adds or replaces a stage.
+    void add(std::string name, StageFactory factory);
+    bool contains(const std::string& name) const { return factories_.count(name) != 0; }
+    /// Throws avatar::InvalidArgument naming an unknown stage and the known ones.
+    std::unique_ptr<ProcessStereoImagePair> create(const std::string& name, const StageContext& context) const;
+    std::vector<std::string> names() const;
+
+private:
+    std::map<std::string, StageFactory> factories_;
+};
+
+}  // namespace avatar

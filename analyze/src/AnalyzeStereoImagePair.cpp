@@ -1,0 +1,197 @@
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/common/Error.h>
+#include <avatar/common/ImageUtils.h>
+#include <avatar/common/Logging.h>
+
+#include <log4cpp/Category.hh>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <future>
+#include <mutex>
+#include <set>
+#include <thread>
+
+namespace avatar {
+
+/// One long-lived thread that runs the right image's share of each stage, so
+/// no thread is created per frame.
+class AnalyzeStereoImagePair::Worker {
+public:
+    Worker() : thread_([this] { loop(); }) {}
+    ~Worker() {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            stop_ = true;
+        }
+        wake_.notify_one();
+        thread_.join();
+    }
+    std::future<void> submit(std::function<void()> work) {
+        std::packaged_task<void()> task(std::move(work));
+        auto done = task.get_future();
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            task_ = std::move(task);
+            pending_ = true;
+        }
+        wake_.notify_one();
+        return done;
+    }
+
+private:
+    void loop() {
+        for (;;) {
+            std::packaged_task<void()> task;
+            {
+                std::unique_lock<std::mutex> lock(mutex_);
+                wake_.wait(lock, [this] { return stop_ || pending_; });
+                if (!pending_) return;
+                task = std::move(task_);
+                pending_ = false;
+            }
+            task();  // exceptions land in the future
+        }
+    }
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::packaged_task<void()> task_;
+    bool pending_{false};
+    bool stop_{false};
+    std::thread thread_;
+};
+
+namespace {
+
+// Built-in stages that need another built-in stage earlier in the chain.
+const std::pair<const char*, const char*> kNeeds[] = {
+    {"erode_restore", "color_filter"}, {"locate_features", "color_filter"},
+    {"match", "locate_features"},      {"triangulate", "match"},
+};
+
+}  // namespace
+
+AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
+                                               const std::filesystem::path& configDir,
+                                               const StageRegistry& registry)
+    : config_(config) {
+    std::set<std::string> seen;
+    const StageContext context{config_, configDir.string()};
+    for (const std::string& name : config_.analysis.stages) {
+        if (!seen.insert(name).second)
+            throw InvalidArgument("analysis stage '" + name + "' appears twice in the pipeline");
+        for (const auto& [stage, needed] : kNeeds)
+            if (name == stage && !seen.count(needed))
+                throw InvalidArgument("analysis stage '" + name + "' needs '" + needed + "' before it");
+        stages_.push_back(registry.create(name, context));
+        names_.push_back(name);
+    }
+    worker_ = std::make_unique<Worker>();
+    logging::category("analyze").info("pipeline: %zu stages, %zu target types", stages_.size(),
+                                      config_.targets.targets.size());
+}
+
+AnalyzeStereoImagePair::~AnalyzeStereoImagePair() = default;
+
+VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::uint64_t iteration) {
+    const auto& cam = config_.camera;
+    if (pair.empty()) throw InvalidArgument("analyze: empty stereo pair");
+    if (pair.size() != cv::Size(cam.width, cam.height))
+        throw InvalidArgument("analyze: pair is " + std::to_string(pair.size().width) + "x" +
+                              std::to_string(pair.size().height) + " but the camera configuration says " +
+                              std::to_string(cam.width) + "x" + std::to_string(cam.height));
+    if (pair.channels() != cam.channels)
+        throw InvalidArgument("analyze: pair has " + std::to_string(pair.channels()) +
+                              " channel(s) but the camera configuration says " + std::to_string(cam.channels));
+
+    using Clock = std::chrono::steady_clock;
+    const auto start = Clock::now();
+    AnalysisFrame frame;
+    frame.original = pair;
+    frame.layout = pair.layout();
+    for (Side side : {Side::Left, Side::Right}) frame.at(side).image = pair.image(side);
+    frame.result.iteration = iteration;
+    frame.result.acquisition = pair.id();
+
+    for (auto& stage : stages_) {
+        const auto t0 = Clock::now();
+        stage->prepare(frame);
+        if (stage->hasImageWork()) {
+            if (parallel_) {
+                auto right = worker_->submit([&] { stage->processImage(frame, Side::Right); });
+                try {
+                    stage->processImage(frame, Side::Left);
+                } catch (...) {
+                    right.wait();  // never leave the worker writing into a dead frame
+                    throw;
+                }
+                right.get();
+            } else {
+                stage->processImage(frame, Side::Left);
+                stage->processImage(frame, Side::Right);
+            }
+        }
+        stage->processPair(frame);
+        frame.result.timings.push_back(
+            {std::string(stage->name()), std::chrono::duration<double, std::milli>(Clock::now() - t0).count()});
+    }
+    frame.result.timings.push_back(
+        {"total", std::chrono::duration<double, std::milli>(Clock::now() - start).count()});
+    frame_ = std::move(frame);
+    return frame_.result;
+}
+
+StereoImagePair AnalyzeStereoImagePair::filteredImages() const {
+    if (frame_.original.empty()) return {};
+    std::array<cv::Mat, 2> out;
+    for (Side side : {Side::Left, Side::Right}) {
+        const ImageWork& w = frame_.at(side);
+        cv::Mat unionMask = cv::Mat::zeros(w.image.size(), CV_8UC1);
+        for (const cv::Mat& m : w.masks) cv::bitwise_or(unionMask, m, unionMask);
+        cv::Mat filtered = cv::Mat::zeros(w.image.size(), w.image.type());
+        w.image.copyTo(filtered, unionMask);
+        out[side == Side::Left ? 0 : 1] = filtered;
+    }
+    return StereoImagePair(out[0], out[1], frame_.layout, frame_.original.id());
+}
+
+StereoImagePair AnalyzeStereoImagePair::markedImages() const {
+    if (frame_.original.empty()) return {};
+    static const cv::Scalar kColours[] = {{0, 255, 255}, {255, 0, 255}, {255, 255, 0},
+                                          {0, 128, 255}, {255, 128, 0}, {128, 255, 0}};
+    std::array<cv::Mat, 2> out;
+    for (Side side : {Side::Left, Side::Right}) {
+        const ImageWork& w = frame_.at(side);
+        cv::Mat display = toDisplay8(w.image, frame_.layout.bitDepth);
+        if (display.channels() == 1) cv::cvtColor(display, display, cv::COLOR_GRAY2BGR);
+        for (std::size_t t = 0; t < w.features.size(); ++t) {
+            const cv::Scalar colour = kColours[t % 6];
+            for (const Feature& f : w.features[t]) {
+                cv::rectangle(display, f.box, colour * 0.6, 1);
+                for (const cv::Point& p : f.boundary) cv::circle(display, p, 2, colour, 1);
+                cv::drawMarker(display, cv::Point(cvRound(f.weightedCentroid.x), cvRound(f.weightedCentroid.y)),
+                               colour, cv::MARKER_CROSS, 9, 1);
+            }
+        }
+        out[side == Side::Left ? 0 : 1] = display;
+    }
+    // Label matched targets with the same number in both images.
+    int number = 0;
+    for (const VisionTarget& t : frame_.result.targets) {
+        if (!(t.flags & kTargetStereo)) continue;
+        const std::string label = t.type + " " + std::to_string(number++);
+        if (t.centroidLeftPx)
+            cv::putText(out[0], label, cv::Point(cvRound(t.centroidLeftPx->x) + 6, cvRound(t.centroidLeftPx->y) - 6),
+                        cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1);
+        if (t.centroidRightPx)
+            cv::putText(out[1], label, cv::Point(cvRound(t.centroidRightPx->x) + 6, cvRound(t.centroidRightPx->y) - 6),
+                        cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1);
+    }
+    return StereoImagePair(out[0], out[1], {PixelFormat::Bgr, BayerPattern::BG, 8}, frame_.original.id());
+}
+
+}  // namespace avatar

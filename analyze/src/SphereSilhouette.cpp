@@ -1,0 +1,88 @@
+#include <avatar/analyze/CameraModel.h>
+#include <avatar/analyze/SphereSilhouette.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+namespace avatar {
+
+std::vector<cv::Point2d> featureOutline(const cv::Mat& mask, const Feature& feature) {
+    // Isolate the feature's own component inside its box: flood it from its
+    // first pixel (another feature may reach into the box).
+    const cv::Rect box = feature.box;
+    cv::Mat region = mask(box).clone();
+    cv::threshold(region, region, 0, 255, cv::THRESH_BINARY);
+    const cv::Point seed = feature.boundary[kTopLeft] - box.tl();
+    cv::floodFill(region, seed, cv::Scalar(128), nullptr, cv::Scalar(), cv::Scalar(), 8);
+
+    std::vector<cv::Point2d> outline;
+    auto inside = [&](int x, int y) {
+        return x >= 0 && y >= 0 && x < region.cols && y < region.rows && region.at<uchar>(y, x) == 128;
+    };
+    for (int y = 0; y < region.rows; ++y) {
+        for (int x = 0; x < region.cols; ++x) {
+            if (!inside(x, y)) continue;
+            const double px = x + box.x, py = y + box.y;
+            if (!inside(x - 1, y)) outline.emplace_back(px - 0.5, py);
+            if (!inside(x + 1, y)) outline.emplace_back(px + 0.5, py);
+            if (!inside(x, y - 1)) outline.emplace_back(px, py - 0.5);
+            if (!inside(x, y + 1)) outline.emplace_back(px, py + 0.5);
+        }
+    }
+    return outline;
+}
+
+std::optional<cv::Point2d> sphereCentreDirection(const CameraIntrinsics& camera,
+                                                 const std::vector<cv::Point2d>& outlinePx) {
+    if (outlinePx.size() < 6) return std::nullopt;
+    // Undistort into an ideal pinhole image with the camera's own fc and cc, so
+    // the fit works in well-conditioned pixel-sized numbers.
+    const double f = camera.fc[0];
+    std::vector<cv::Point2f> ideal;
+    ideal.reserve(outlinePx.size());
+    cv::Point2d mean(0, 0);
+    for (const auto& p : outlinePx) {
+        const cv::Point2d n = normalizePixel(camera, p);
+        mean += n;
+        ideal.emplace_back(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
+    }
+    mean *= 1.0 / static_cast<double>(outlinePx.size());
+    // Centre the points before the float fit to keep precision.
+    const cv::Point2f offset(static_cast<float>(mean.x * f), static_cast<float>(mean.y * f));
+    for (auto& p : ideal) p -= offset;
+    const cv::RotatedRect e = cv::fitEllipseDirect(ideal);
+    if (!(e.size.width > 0 && e.size.height > 0)) return std::nullopt;
+
+    // Conic of the ellipse in normalised coordinates: x^T Q x = 0, x = (u, v, 1).
+    const double a = 0.5 * e.size.width / f, b = 0.5 * e.size.height / f;
+    const double theta = e.angle * CV_PI / 180.0;
+    const double cx = e.center.x / f + mean.x, cy = e.center.y / f + mean.y;
+    const double ct = std::cos(theta), st = std::sin(theta);
+    // Ellipse: ((R^T (x - c))_1 / a)^2 + ((R^T (x - c))_2 / b)^2 = 1
+    const cv::Matx22d R(ct, -st, st, ct);
+    const cv::Matx22d D(1.0 / (a * a), 0, 0, 1.0 / (b * b));
+    const cv::Matx22d A = R * D * R.t();
+    const cv::Vec2d c(cx, cy);
+    const cv::Vec2d Ac = A * c;
+    const double k = c.dot(Ac) - 1.0;
+    const cv::Matx33d Q(A(0, 0), A(0, 1), -Ac[0],
+                        A(1, 0), A(1, 1), -Ac[1],
+                        -Ac[0], -Ac[1], k);
+    cv::Mat values, vectors;
+    cv::eigen(cv::Mat(Q), values, vectors);  // descending eigenvalues, rows are vectors
+    // An ellipse's cone has signature (+, +, -) up to sign: the odd one out is
+    // the eigenvalue whose sign differs from the other two.
+    const double l0 = values.at<double>(0), l1 = values.at<double>(1), l2 = values.at<double>(2);
+    int odd = -1;
+    if (l0 > 0 && l1 > 0 && l2 < 0) odd = 2;
+    else if (l0 > 0 && l1 < 0 && l2 < 0) odd = 0;
+    if (odd < 0) return std::nullopt;
+    const double vx = vectors.at<double>(odd, 0), vy = vectors.at<double>(odd, 1),
+                 vz = vectors.at<double>(odd, 2);
+    if (std::abs(vz) < 1e-12) return std::nullopt;
+    return cv::Point2d(vx / vz, vy / vz);
+}
+
+}  // namespace avatar

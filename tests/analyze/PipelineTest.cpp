@@ -1,0 +1,226 @@
+// The analysis orchestrator on synthetic pairs drawn with exact geometry:
+// discs facing the left camera, projected with the Scorpion calibration.
+
+#include "ScorpionCalibration.h"
+
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/Error.h>
+#include <avatar/config/ConfigXml.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+using namespace avatar;
+
+namespace {
+
+const cv::Scalar kBackground(8000, 9000, 6000);   // B, G, R: blue-grey seabed
+const cv::Scalar kYellow(4000, 36000, 40000);     // R/G 1.11, R/B 10, B/G 0.11
+
+AvatarConfig pipelineConfig() {
+    AvatarConfig c;
+    c.camera.width = 1280;
+    c.camera.height = 960;
+    c.camera.bitDepth = 16;
+    c.camera.channels = 3;
+    c.camera.bayer = false;
+    c.stereo = test::scorpionCalibration();
+    TargetType sample;
+    sample.name = "sample";
+    sample.redGreen = {0.9, 1.4};
+    sample.redBlue = {5.0, 100.0};
+    sample.blueGreen = {0.0, 0.3};
+    sample.area = {50, 1e9};
+    c.targets.targets = {sample};
+    c.match.method = MatchMethod::EpipolarBox;
+    c.match.boxDxMin = 30;
+    c.match.boxDxMax = 400;
+    c.match.boxDyMin = -40;
+    c.match.boxDyMax = 40;
+    return c;
+}
+
+// Draws a disc of radius @p radiusMm facing the camera, centred at a point of
+// that camera's frame, with sub-pixel accuracy (8 fractional bits).
+void drawDisc(cv::Mat& image, const CameraIntrinsics& cam, const cv::Point3d& centre, double radiusMm) {
+    const auto px = projectPoint(cam, centre);
+    ASSERT_TRUE(px.has_value());
+    const double radiusPx = cam.fc[0] * radiusMm / centre.z;
+    cv::circle(image, cv::Point(cvRound(px->x * 256), cvRound(px->y * 256)), cvRound(radiusPx * 256), kYellow,
+               cv::FILLED, cv::LINE_8, 8);
+}
+
+struct Scene {
+    StereoImagePair pair;
+    std::vector<cv::Point3d> stereoTruth;   // visible in both
+    cv::Point2d leftOnlyPx;                 // a disc only the left camera sees
+};
+
+Scene makeScene() {
+    const StereoSystemConfig s = test::scorpionCalibration();
+    const RigidTransform rTl = rightTLeft(s);
+    cv::Mat left(960, 1280, CV_16UC3, kBackground), right(960, 1280, CV_16UC3, kBackground);
+    Scene scene;
+    scene.stereoTruth = {{-150, 50, 700}, {100, -80, 900}, {250, 120, 600}};
+    for (const auto& p : scene.stereoTruth) {
+        drawDisc(left, s.left, p, 20);
+        drawDisc(right, s.right, transformPoint(rTl, p), 20);
+    }
+    const cv::Point3d edge(-435, 0, 700);  // u ~ 60 px left, off the right image
+    drawDisc(left, s.left, edge, 15);
+    scene.leftOnlyPx = *projectPoint(s.left, edge);
+    scene.pair = StereoImagePair(left, right, {PixelFormat::Bgr, BayerPattern::BG, 16}, {1, 4, {}, {}});
+    return scene;
+}
+
+}  // namespace
+
+TEST(Pipeline, TriangulatesDiscsToTheirTruePositions) {
+    const Scene scene = makeScene();
+    AnalyzeStereoImagePair analyzer(pipelineConfig());
+    const VisionTargets result = analyzer.analyze(scene.pair, 17);
+    EXPECT_EQ(result.iteration, 17u);
+    EXPECT_EQ(result.acquisition.member, 4u);
+
+    std::vector<VisionTarget> stereo, single;
+    for (const auto& t : result.targets) ((t.flags & kTargetStereo) ? stereo : single).push_back(t);
+    ASSERT_EQ(stereo.size(), 3u);
+    for (const auto& truth : scene.stereoTruth) {
+        double best = 1e9;
+        for (const auto& t : stereo) best = std::min(best, cv::norm(*t.positionVisionMm - truth));
+        EXPECT_LT(best, 1.5) << "no target within 1.5 mm of " << truth;
+    }
+    ASSERT_EQ(single.size(), 1u);
+    EXPECT_TRUE(single[0].flags & kTargetLeftOnly);
+    EXPECT_FALSE(single[0].positionVisionMm.has_value());
+    ASSERT_TRUE(single[0].centroidLeftPx.has_value());
+    EXPECT_LT(cv::norm(*single[0].centroidLeftPx - scene.leftOnlyPx), 0.5);
+    EXPECT_EQ(result.visibility, Visibility::Good) << result.visibilityReason;
+}
+
+TEST(Pipeline, ParallelAndSerialRunsGiveIdenticalResults) {
+    const Scene scene = makeScene();
+    AnalyzeStereoImagePair parallel(pipelineConfig()), serial(pipelineConfig());
+    serial.setParallel(false);
+    const auto a = parallel.analyze(scene.pair, 1);
+    const auto b = serial.analyze(scene.pair, 1);
+    EXPECT_EQ(a.targets, b.targets);  // bit for bit
+    EXPECT_EQ(a.visibility, b.visibility);
+}
+
+TEST(Pipeline, TimesEveryStageAndTheTotal) {
+    const Scene scene = makeScene();
+    AnalyzeStereoImagePair analyzer(pipelineConfig());
+    const auto result = analyzer.analyze(scene.pair, 1);
+    std::vector<std::string> names;
+    for (const auto& t : result.timings) {
+        names.push_back(t.stage);
+        EXPECT_GE(t.milliseconds, 0.0);
+    }
+    std::vector<std::string> expected = pipelineConfig().analysis.stages;
+    expected.push_back("total");
+    EXPECT_EQ(names, expected);
+}
+
+TEST(Pipeline, KeepsOriginalFilteredAndMarkedImages) {
+    const Scene scene = makeScene();
+    AnalyzeStereoImagePair analyzer(pipelineConfig());
+    analyzer.analyze(scene.pair, 1);
+    // The original is the acquired pair, untouched.
+    EXPECT_EQ(cv::norm(analyzer.originalImages().left(), scene.pair.left(), cv::NORM_INF), 0.0);
+    const auto filtered = analyzer.filteredImages();
+    // Background is filtered out, a disc centre is kept.
+    EXPECT_EQ(filtered.left().at<cv::Vec3w>(5, 640), cv::Vec3w(0, 0, 0));
+    const auto centre = *projectPoint(test::scorpionCalibration().left, {-150, 50, 700});
+    EXPECT_EQ(filtered.left().at<cv::Vec3w>(cvRound(centre.y), cvRound(centre.x)), cv::Vec3w(4000, 36000, 40000));
+    const auto marked = analyzer.markedImages();
+    EXPECT_EQ(marked.left().type(), CV_8UC3);
+    EXPECT_EQ(marked.size(), scene.pair.size());
+    // The centroid cross of the disc is drawn in the first type's colour (yellow).
+    EXPECT_EQ(marked.left().at<cv::Vec3b>(cvRound(centre.y), cvRound(centre.x)), cv::Vec3b(0, 255, 255));
+    // Away from features the marked image is the 8-bit rendition of the working image.
+    EXPECT_EQ(marked.left().at<cv::Vec3b>(5, 640), cv::Vec3b(31, 35, 23));
+}
+
+TEST(Pipeline, StageOrderAndNamesAreChecked) {
+    auto config = pipelineConfig();
+    config.analysis.stages = {"demosaic", "color_filter", "match", "locate_features"};
+    try {
+        AnalyzeStereoImagePair a(config);
+        FAIL();
+    } catch (const InvalidArgument& e) {
+        EXPECT_STREQ(e.what(), "analysis stage 'match' needs 'locate_features' before it");
+    }
+    config.analysis.stages = {"demosaic", "sharpen"};
+    try {
+        AnalyzeStereoImagePair a(config);
+        FAIL();
+    } catch (const InvalidArgument& e) {
+        EXPECT_STREQ(e.what(), "unknown analysis stage 'sharpen' (known: color_filter, demosaic, erode_restore, "
+                               "lighting, locate_features, match, triangulate, visibility)");
+    }
+    config.analysis.stages = {"demosaic", "demosaic"};
+    EXPECT_THROW(AnalyzeStereoImagePair a(config), InvalidArgument);
+}
+
+TEST(Pipeline, ANewStageIsOneClassAndOneName) {
+    // A stage that counts features, inserted by name.
+    struct CountStage : ProcessStereoImagePair {
+        std::string_view name() const override { return "count"; }
+        void processPair(AnalysisFrame& frame) override {
+            frame.result.visibilityReason = "features: " + std::to_string(frame.at(Side::Left).features[0].size());
+        }
+    };
+    StageRegistry registry = StageRegistry::builtin();
+    registry.add("count", [](const StageContext&) { return std::make_unique<CountStage>(); });
+    auto config = pipelineConfig();
+    config.analysis.stages = {"demosaic", "color_filter", "locate_features", "count"};
+    AnalyzeStereoImagePair analyzer(config, {}, registry);
+    EXPECT_EQ(analyzer.analyze(makeScene().pair, 1).visibilityReason, "features: 4");
+}
+
+TEST(Pipeline, RejectsPairsThatDoNotFitTheCamera) {
+    AnalyzeStereoImagePair analyzer(pipelineConfig());
+    cv::Mat small(480, 640, CV_16UC3, kBackground);
+    try {
+        analyzer.analyze(StereoImagePair(small, small, {PixelFormat::Bgr, BayerPattern::BG, 16}), 1);
+        FAIL();
+    } catch (const InvalidArgument& e) {
+        EXPECT_STREQ(e.what(), "analyze: pair is 640x480 but the camera configuration says 1280x960");
+    }
+}
+
+TEST(Pipeline, FlatImageIsPoorVisibility) {
+    AnalyzeStereoImagePair analyzer(pipelineConfig());
+    cv::Mat flat(960, 1280, CV_16UC3, cv::Scalar(30000, 30000, 30000));
+    const auto result = analyzer.analyze(StereoImagePair(flat, flat.clone(), {PixelFormat::Bgr, BayerPattern::BG, 16}), 1);
+    EXPECT_EQ(result.visibility, Visibility::Poor);
+    EXPECT_EQ(result.visibilityReason, "left: contrast 0.0000 below 0.0200; right: contrast 0.0000 below 0.0200");
+}
+
+TEST(SampleConfig, ScorpionDisparityBoxCoversTheWorkspace) {
+    // Every point 0.4..3 m away that both cameras see must fall inside the
+    // shipped epipolar box, or the matcher would never pair it.
+    const AvatarConfig c = readConfigFile(std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml");
+    const RigidTransform rTl = rightTLeft(c.stereo);
+    int visible = 0;
+    for (double u = 0; u < 1280; u += 40) {
+        for (double v = 0; v < 960; v += 40) {
+            for (double z : {400.0, 600.0, 1000.0, 2000.0, 3000.0}) {
+                const cv::Point2d n = normalizePixel(c.stereo.left, {u, v});
+                const cv::Point3d p(n.x * z, n.y * z, z);
+                const auto r = projectPoint(c.stereo.right, transformPoint(rTl, p));
+                if (!r || r->x < 0 || r->y < 0 || r->x >= 1280 || r->y >= 960) continue;
+                ++visible;
+                const double dx = u - r->x, dy = v - r->y;
+                EXPECT_TRUE(c.match.boxDxMin < dx && dx < c.match.boxDxMax) << u << "," << v << " at " << z << ": dx " << dx;
+                EXPECT_TRUE(c.match.boxDyMin < dy && dy < c.match.boxDyMax) << u << "," << v << " at " << z << ": dy " << dy;
+            }
+        }
+    }
+    EXPECT_GT(visible, 1500);
+}
