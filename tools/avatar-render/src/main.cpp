@@ -1,6 +1,7 @@
 // avatar-render: renders synthetic stereo pairs with exact ground truth.
 // User guide: docs/tools/avatar-render.md.
 
+#include <avatar/acquire/SessionLog.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
 #include <avatar/config/ConfigXml.h>
@@ -26,6 +27,7 @@ const char* const kUsage = R"(usage:
                 [--max-targets N] [options]
   avatar-render (--config FILE | --scorpion) --checkerboards N --out DIR [--board 10x7]
                 [--square-mm 30] [options]
+  avatar-render --config FILE --scene FILE --session N --out DIR [options]
 
 camera (one is required):
   --config FILE       AVATAR configuration: calibration, registration, image format
@@ -39,6 +41,9 @@ rendering:
   --no-noise          ignore the scene's read and shot noise
 output:
   --out DIR           output directory (created)
+  --session N         record N pairs of the scene (independent noise) as a session in the
+                      raw log format (docs/formats.md): session.log, 16-bit PNG pairs and
+                      <group>_<member>_truth.xml per pair; needs --config (it is recorded)
   --group N           acquisition group of the raw file names (default 1)
   --member N          member of the first pair (default 0; sets count up)
   --no-preview        no PNG previews
@@ -83,6 +88,7 @@ struct Arguments {
     std::optional<std::string> sceneFile;
     std::optional<int> sceneSet;
     std::optional<int> checkerboards;
+    std::optional<int> session;
     std::string out;
     int minTargets{1}, maxTargets{8};
     int squaresX{10}, squaresY{7};
@@ -113,6 +119,7 @@ Arguments parse(int argc, char** argv) {
         else if (o == "--scene") a.sceneFile = value();
         else if (o == "--scene-set") a.sceneSet = static_cast<int>(toInteger(o, value(), 1, 100000));
         else if (o == "--checkerboards") a.checkerboards = static_cast<int>(toInteger(o, value(), 1, 10000));
+        else if (o == "--session") a.session = static_cast<int>(toInteger(o, value(), 1, 99999));
         else if (o == "--out") a.out = value();
         else if (o == "--min-targets") a.minTargets = static_cast<int>(toInteger(o, value(), 1, 32));
         else if (o == "--max-targets") a.maxTargets = static_cast<int>(toInteger(o, value(), 1, 32));
@@ -144,6 +151,7 @@ Arguments parse(int argc, char** argv) {
         usageError("give exactly one of --scene, --scene-set and --checkerboards");
     if (a.out.empty()) usageError("--out DIR is required");
     if (a.minTargets > a.maxTargets) usageError("--min-targets is larger than --max-targets");
+    if (a.session && (!a.sceneFile || !a.configFile)) usageError("--session needs --scene FILE and --config FILE");
     return a;
 }
 
@@ -171,14 +179,49 @@ void printSummary(const std::string& sceneFile, const RenderResult& r, const Wri
     }
 }
 
+// Records @p count renders of one scene as a session: what TAUNet would have
+// recorded watching a still scene, with the ground truth beside each pair.
+void recordSession(const Arguments& a, const AvatarConfig& config, const Scene& scene, int count) {
+    SessionLogWriter writer(a.out);
+    const std::string configXml = writeConfigString(config);
+    // Deterministic timestamps: 2 Hz from a fixed start, the right camera 40 us later.
+    const std::int64_t startUs = 1'790'000'000'000'000LL;
+    for (int i = 0; i < count; ++i) {
+        const std::uint32_t member = a.member + static_cast<std::uint32_t>(i);
+        RenderOptions options = a.options;
+        options.seed = a.options.seed * 1000003ULL + member;
+        RenderResult result = avatar::render::render(scene, config.stereo, options);
+        AcquisitionId id;
+        id.group = a.group;
+        id.member = member;
+        id.left = {config.camera.leftCameraId, startUs + 500'000LL * i};
+        id.right = {config.camera.rightCameraId, startUs + 500'000LL * i + 40};
+        result.pair.setId(id);
+        SessionRecord record;
+        record.iteration = static_cast<std::uint64_t>(i) + 1;
+        record.acquisition = id;
+        record.files = writer.writePair(result.pair, Compression::Png);
+        record.configVersion = 1;
+        if (i == 0) record.configXml = configXml;
+        writer.append(record);
+        char truthName[64];
+        std::snprintf(truthName, sizeof truthName, "%05u_%05u_truth.xml", a.group, member);
+        writeGroundTruthFile(result.truth, std::filesystem::path(a.out) / truthName);
+        std::printf("iteration %d: %s %s, %s (%.0f ms)\n", i + 1, record.files.left.name.c_str(),
+                    record.files.right.name.c_str(), truthName, result.truth.stats.milliseconds);
+    }
+}
+
 int run(int argc, char** argv) {
     Arguments a = parse(argc, argv);
     logging::configure(a.logLevel);
 
     StereoSystemConfig stereo;
     SensorFormat& sensor = a.options.sensor;
+    std::optional<AvatarConfig> loaded;
     if (a.configFile) {
-        const AvatarConfig config = readConfigFile(*a.configFile);
+        loaded = readConfigFile(*a.configFile);
+        const AvatarConfig& config = *loaded;
         stereo = config.stereo;
         sensor = sensorFormatFrom(config.camera);
     } else {
@@ -192,6 +235,13 @@ int run(int argc, char** argv) {
     if (a.bgr) sensor.format = PixelFormat::Bgr;
     if (a.bigEndian) sensor.fileByteOrder = ByteOrder::Big;
     a.options.validate();
+
+    if (a.session) {
+        if (a.width || a.height || a.bits || a.pattern || a.bgr || a.bigEndian)
+            usageError("--session records the image format of --config; format overrides do not apply");
+        recordSession(a, *loaded, readSceneFile(*a.sceneFile), *a.session);
+        return 0;
+    }
 
     std::vector<std::pair<Scene, std::string>> scenes;  // scene and the file it came from / goes to
     if (a.sceneFile) {
