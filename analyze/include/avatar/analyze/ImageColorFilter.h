@@ -14,18 +14,45 @@ namespace avatar {
 
 /// Computes one mask per target type (CV_8UC1, 255 where the pixel passes that
 /// type's filter, 0 elsewhere) from an 8- or 16-bit BGR image, in one pass over
-/// the pixels. Only pixels inside each type's search window are tested; the
-/// rest of its mask is 0.
+/// the pixels (row by row; each row is tested for every type while it is in
+/// cache). Only pixels inside each type's search window are tested; the rest
+/// of its mask is 0. The window is clipped to the image exactly as
+/// searchWindow() does (unset window: the whole image; a window entirely
+/// outside the image throws avatar::InvalidArgument).
 ///
 /// RGB-ratio filter: R/G, R/B and B/G each within [min, max], and R+G+B within
 /// the brightness range when one is set. Ratios are evaluated without division
 /// (min * G <= R <= max * G); a ratio whose numerator and denominator are both
 /// zero is undefined and fails, a zero denominator under a non-zero numerator
-/// is +infinity and fails any finite max. So black pixels never pass, and no
-/// NaN or division by zero can occur.
+/// is +infinity and fails every max (even an infinite one). So black pixels
+/// never pass, a pixel passes only if G > 0 and B > 0, and no NaN or division
+/// by zero can occur. The comparison is exact for the double limits: a pixel
+/// passes if and only if its rational ratio lies in the closed interval of the
+/// limits' exact binary values (so a limit of 0.25 includes 1/4, while the
+/// double nearest 0.1 lies just above 1/10 and a min of 0.1 excludes R/G = 1/10).
+/// Consequently images that are multiples of each other (an 8-bit image and
+/// the same image times 257 in 16 bits) give identical masks. Internally each
+/// limit is replaced once by an equivalent value between the neighbouring
+/// fractions p/q (p, q <= 255 or 65535), so each pixel costs one multiplication
+/// and one comparison per limit, in float when that is provably exact (always
+/// for 8-bit images) and in double otherwise. Brightness limits are compared
+/// with the integer sum (fractional limits round inwards).
 ///
 /// HSV filter: hue in degrees [0, 360) (a range with min > max wraps through 0),
-/// saturation and value in [0, 1] relative to the image's full scale.
+/// saturation and value in [0, 1] relative to the image's full scale, as
+/// cv::cvtColor defines them: V = max(R,G,B) / (2^bitDepth - 1),
+/// S = (max - min) / max (0 for black), hue 0 for grey pixels. Hue is computed
+/// in single precision with one division; S and V limits are exact like the
+/// ratio limits. All limits are inclusive.
+///
+/// Masks are written in place when masks[i] is already a CV_8UC1 of the
+/// image's size whose buffer nothing else refers to; otherwise a new buffer
+/// is allocated (a mask still held elsewhere, e.g. by a display, is never
+/// overwritten).
+///
+/// Throws avatar::FormatError for an image that is not CV_8UC3 / CV_16UC3,
+/// avatar::InvalidArgument for a bit depth outside 1..8 / 1..16 and for a type
+/// with a NaN limit or a range with min > max (hue excepted), naming the type.
 ///
 /// @param bgr      8- or 16-bit, 3 channels
 /// @param bitDepth significant bits of the samples (full scale = 2^bitDepth - 1)
@@ -34,7 +61,10 @@ namespace avatar {
 void colorFilterMasks(const cv::Mat& bgr, int bitDepth, const std::vector<TargetType>& types,
                       std::vector<cv::Mat>& masks);
 
-/// The filtered image of thesis Figure 3-9 (b): @p bgr where @p mask is set, 0 elsewhere.
+/// The filtered image of thesis Figure 3-9 (b): @p bgr where @p mask is set
+/// (non-zero), 0 elsewhere; a new image of @p bgr's type. Throws
+/// avatar::FormatError when @p mask is not CV_8UC1 and avatar::InvalidArgument
+/// when the sizes differ.
 cv::Mat applyMask(const cv::Mat& bgr, const cv::Mat& mask);
 
 }  // namespace avatar

@@ -1,0 +1,475 @@
+#include <avatar/analyze/ImageColorFilter.h>
+
+#include <avatar/analyze/ImageFeatureLocator.h>
+#include <avatar/common/Error.h>
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <type_traits>
+#include <utility>
+
+namespace avatar {
+namespace {
+
+// ---------------------------------------------------------------------------
+// Exact thresholds.
+//
+// Every colour test here is "num/den >= x" or "num/den <= x" for integer
+// samples num, den in [0, N] (N = 255 or 65535, the container's maximum) and a
+// double limit x. Its outcome depends only on which fractions p/q (0 <= p <= N,
+// 1 <= q <= N) lie on which side of x. Let lo be the largest fraction that
+// fails "p/q >= x" (or passes "p/q <= x") and hi the smallest that passes (or
+// fails); lo and hi are neighbours in the Stern-Brocot tree truncated at N, so
+// hi - lo >= 1/N^2. Any value m strictly between them gives the same outcome for
+// every pixel, and with m at least (hi - lo)/2 away from both, m*den can be
+// rounded to float or double without the comparison with num changing sign
+// as long as the rounding error stays below den*(hi - lo)/2: always so in
+// double, checked per limit for float (limitIsExact). So each limit is replaced
+// once by such an m, and the per-pixel test is one multiplication and one
+// comparison that is exact, NaN-free and scale-invariant (8-bit and 16-bit
+// images that are multiples of each other give identical masks).
+// ---------------------------------------------------------------------------
+
+constexpr double kMinLimit = 1.0 / (1 << 20);  // below 1/N for every N <= 2^16
+constexpr double kMaxLimit = 1 << 20;          // above N
+
+/// The exact sign of p/q - x for 0 <= p, 1 <= q, p, q <= 2^17 and x in
+/// [kMinLimit, kMaxLimit]. x is split into a 26-bit head and a 27-bit tail so
+/// that both products with q are exact; p - head*q is exact whenever the two
+/// are within a factor 2 (Sterbenz), and otherwise far larger than tail*q.
+int compareFraction(double p, double q, double x) {
+    int e = 0;
+    const double f = std::frexp(x, &e);
+    const double head = std::ldexp(std::trunc(std::ldexp(f, 26)), e - 26);
+    const double tail = x - head;
+    const double d = p - head * q;
+    const double t = tail * q;
+    return d > t ? 1 : (d < t ? -1 : 0);
+}
+
+/// Which fractions pass a limit test.
+enum class Bound {
+    Lower,  ///< p/q >= x passes
+    Upper   ///< p/q <= x passes
+};
+
+/// The fractions next to a limit: every fraction p/q (0 <= p <= N, 1 <= q <= N)
+/// either passes or fails the limit test, and the ones that fail "p/q >= x"
+/// (pass "p/q <= x") are all <= a/b, the others all >= c/d.
+struct Neighbours {
+    enum Kind { AllAbove, AllBelow, Between } kind{Between};
+    double a{0}, b{1}, c{1}, d{0};
+};
+
+Neighbours neighbours(double x, Bound bound, std::uint32_t n) {
+    Neighbours nb;
+    const double nd = n;
+    if ((bound == Bound::Lower && !(x > 0.0)) || x < 0.0) {
+        nb.kind = Neighbours::AllAbove;  // Lower: everything passes; Upper: nothing does
+        return nb;
+    }
+    if (x > nd || (x == nd && bound == Bound::Upper)) {
+        nb.kind = Neighbours::AllBelow;  // Lower: no finite ratio passes; Upper: all do
+        return nb;
+    }
+    const double xc = std::clamp(x, kMinLimit, kMaxLimit);  // same classes for these p, q
+    const auto above = [&](double p, double q) {
+        const int s = compareFraction(p, q, xc);
+        return bound == Bound::Lower ? s >= 0 : s > 0;
+    };
+    if (!above(nd, 1.0)) {
+        nb.kind = Neighbours::AllBelow;
+        return nb;
+    }
+    // Stern-Brocot descent from 0/1 (below, since x > 0 here) and 1/0 (above),
+    // moving the bound that the mediant replaces as far as it can go in one
+    // step (binary search over the multiple): O(log^2 N) comparisons.
+    double a = 0, b = 1, c = 1, d = 0;
+    while (a + c <= nd && b + d <= nd) {
+        const bool up = above(a + c, b + d);
+        // The bound that moves: (c, d) += k (a, b) when the mediant is above,
+        // (a, b) += k (c, d) otherwise; k as large as stays on its side and within N.
+        double& mp = up ? c : a;
+        double& mq = up ? d : b;
+        const double sp = up ? a : c;
+        const double sq = up ? b : d;
+        double kMax = sp > 0 ? std::floor((nd - mp) / sp) : nd;
+        kMax = std::min(kMax, sq > 0 ? std::floor((nd - mq) / sq) : nd);
+        double lo = 1, hi = kMax;
+        while (lo < hi) {
+            const double mid = std::floor((lo + hi + 1) / 2);
+            if (above(mp + mid * sp, mq + mid * sq) == up) lo = mid; else hi = mid - 1;
+        }
+        mp += lo * sp;
+        mq += lo * sq;
+    }
+    // d >= 1: N/1 is above, so the upper bound has left 1/0.
+    nb.a = a;
+    nb.b = b;
+    nb.c = c;
+    nb.d = d;
+    return nb;
+}
+
+/// The replacement m of a limit in type T: for Bound::Lower the pixel test is
+/// m*den <= num, for Bound::Upper num <= m*den. -1 when every fraction is
+/// above the limit, N + 1 when every finite one is below; both products are
+/// exact or on the right side of every num for any den <= N.
+template <typename T>
+T limitValue(const Neighbours& nb, std::uint32_t n) {
+    switch (nb.kind) {
+        case Neighbours::AllAbove: return T(-1);
+        case Neighbours::AllBelow: return static_cast<T>(n + 1.0);
+        case Neighbours::Between: break;
+    }
+    return static_cast<T>((nb.a / nb.b + nb.c / nb.d) / 2);
+}
+
+/// True when m = limitValue<T>() is far enough from a/b and c/d that m*den,
+/// rounded to T, is on the same side of every num as the exact product:
+/// |m*den - num| >= den * dist while the rounding error is <= den * m * eps/2.
+template <typename T>
+bool limitIsExact(const Neighbours& nb, std::uint32_t n) {
+    if (nb.kind != Neighbours::Between) return true;
+    const double m = limitValue<T>(nb, n);
+    const double dist = std::min(m - nb.a / nb.b, nb.c / nb.d - m);
+    // eps (not eps/2) leaves room for the rounding of a/b and c/d themselves.
+    return dist > m * static_cast<double>(std::numeric_limits<T>::epsilon());
+}
+
+template <typename T>
+T exactLimit(double x, Bound bound, std::uint32_t n) {
+    return limitValue<T>(neighbours(x, bound, n), n);
+}
+
+// ---------------------------------------------------------------------------
+// Per-type plans and row kernels.
+//
+// The kernels are plain loops over interleaved BGR samples. GCC vectorises
+// the stride-3 loads with their widening to int only from SSE4.1 on, so each
+// kernel is also compiled for AVX2, AVX and SSE4.1 and the best clone for the
+// CPU is picked when the program loads (target_clones, an ifunc); the default
+// clone is the scalar, branch-free loop for any x86-64.
+// ---------------------------------------------------------------------------
+
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+#define AVATAR_KERNEL_CLONES __attribute__((target_clones("avx2", "avx", "sse4.1", "default")))
+#else
+#define AVATAR_KERNEL_CLONES
+#endif
+
+template <typename T>
+struct RatioLimits {
+    T rgLo, rgHi, rbLo, rbHi, bgLo, bgHi;  // exact replacements, see exactLimit()
+    T sumLo, sumHi;                        // integer limits on R+G+B
+};
+
+template <typename T>
+struct HsvLimits {
+    float hueLo, hueHi;    // degrees
+    bool hueWraps;         // min > max: passes hue >= lo OR hue <= hi
+    T satLo, satHi;        // exact replacements for (max-min)/max
+    bool blackSatPasses;   // saturation of a black pixel (defined as 0) is in range
+    T valLo, valHi;        // integer limits on max(R, G, B)
+};
+
+/// RGB-ratio test (thesis Figure 3-8) on one row span. Branch-free so that
+/// GCC vectorises it at -O3: the three samples are widened to T, each of the
+/// six ratio limits costs one multiply and one compare, and the verdict is a
+/// 0/255 byte.
+template <typename S, typename T>
+AVATAR_KERNEL_CLONES void ratioRow(const S* __restrict px, std::uint8_t* __restrict out, int n, const RatioLimits<T>& lim) {
+    const T rgLo = lim.rgLo, rgHi = lim.rgHi, rbLo = lim.rbLo, rbHi = lim.rbHi;
+    const T bgLo = lim.bgLo, bgHi = lim.bgHi, sumLo = lim.sumLo, sumHi = lim.sumHi;
+    for (int i = 0; i < n; ++i) {
+        // Widening through int32: GCC vectorises int -> float/double, not u16 -> float.
+        const T b = static_cast<T>(static_cast<std::int32_t>(px[3 * i]));
+        const T g = static_cast<T>(static_cast<std::int32_t>(px[3 * i + 1]));
+        const T r = static_cast<T>(static_cast<std::int32_t>(px[3 * i + 2]));
+        const T sum = b + g + r;
+        // G > 0 and B > 0: a zero denominator makes R/G or B/G (or R/B) either
+        // 0/0 or +infinity, both of which fail (see the header).
+        const bool ok = (g > T(0)) & (b > T(0)) & (rgLo * g <= r) & (r <= rgHi * g) &
+                        (rbLo * b <= r) & (r <= rbHi * b) & (bgLo * g <= b) & (b <= bgHi * g) &
+                        (sum >= sumLo) & (sum <= sumHi);
+        out[i] = static_cast<std::uint8_t>(ok ? 255 : 0);
+    }
+}
+
+/// HSV test on one row span. Hue is computed in float with one division
+/// (correctly rounded, so it depends only on the ratio of the samples);
+/// saturation and value use exact limits like the ratio test. Written with
+/// integer 0/1 flags and selects between constants only: GCC does not
+/// if-convert a select whose arm is a floating-point operation (it might
+/// trap), and a loop with control flow is not vectorised.
+template <typename S, typename T>
+AVATAR_KERNEL_CLONES void hsvRow(const S* __restrict px, std::uint8_t* __restrict out, int n, const HsvLimits<T>& lim) {
+    const float hueLo = lim.hueLo, hueHi = lim.hueHi;
+    const bool wraps = lim.hueWraps, blackOk = lim.blackSatPasses;
+    const T satLo = lim.satLo, satHi = lim.satHi, valLo = lim.valLo, valHi = lim.valHi;
+    const std::int32_t wrapsI = wraps, blackI = blackOk;
+    for (int i = 0; i < n; ++i) {
+        const std::int32_t b = px[3 * i];
+        const std::int32_t g = px[3 * i + 1];
+        const std::int32_t r = px[3 * i + 2];
+        const std::int32_t mx = std::max(std::max(b, g), r);
+        const std::int32_t mn = std::min(std::min(b, g), r);
+        const std::int32_t c = mx - mn;
+        // Hue sector by the largest channel (ties: red, then green). A grey
+        // pixel (c = 0) takes the red sector with num = 0: hue 0, as cv::cvtColor.
+        const bool isR = mx == r;
+        const bool isG = !isR & (mx == g);
+        const bool isB = !isR & !isG;
+        const std::int32_t num = isR * (g - b) + isG * (b - r) + isB * (r - g);
+        const std::int32_t off = 120 * isG + 240 * isB;
+        const float den = static_cast<float>(std::max(c, 1));
+        const float h = 60.0f * (static_cast<float>(num) / den) + static_cast<float>(off);
+        const float hue = h + (h < 0.0f ? 360.0f : 0.0f);
+        const std::int32_t aboveLo = hue >= hueLo;
+        const std::int32_t belowHi = hue <= hueHi;
+        // Without wrap-around both must hold; with it (lo > hi) they cannot
+        // both hold and either suffices.
+        const std::int32_t hueOk = (aboveLo & belowHi) | (wrapsI & (aboveLo | belowHi));
+        const T mxT = static_cast<T>(mx);
+        const T cT = static_cast<T>(c);
+        const std::int32_t satRatioOk = (satLo * mxT <= cT) & (cT <= satHi * mxT);
+        const std::int32_t positive = mx > 0;
+        const std::int32_t satOk = (positive & satRatioOk) | ((1 - positive) & blackI);
+        const std::int32_t valOk = (mxT >= valLo) & (mxT <= valHi);
+        out[i] = static_cast<std::uint8_t>(-(hueOk & satOk & valOk));
+    }
+}
+
+/// Everything one type needs for one image: its clipped window and its row
+/// kernel with its limits.
+struct Plan {
+    cv::Rect window;
+    void (*row)(const void* px, std::uint8_t* out, int n, const Plan& plan){nullptr};
+    RatioLimits<float> ratioF{};
+    RatioLimits<double> ratioD{};
+    HsvLimits<float> hsvF{};
+    HsvLimits<double> hsvD{};
+};
+
+template <typename S, typename T>
+void ratioRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) {
+    if constexpr (std::is_same_v<T, float>)
+        ratioRow<S, T>(static_cast<const S*>(px), out, n, plan.ratioF);
+    else
+        ratioRow<S, T>(static_cast<const S*>(px), out, n, plan.ratioD);
+}
+
+template <typename S, typename T>
+void hsvRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) {
+    if constexpr (std::is_same_v<T, float>)
+        hsvRow<S, T>(static_cast<const S*>(px), out, n, plan.hsvF);
+    else
+        hsvRow<S, T>(static_cast<const S*>(px), out, n, plan.hsvD);
+}
+
+std::string describeRange(const Range& r) {
+    return "[" + std::to_string(r.min) + ", " + std::to_string(r.max) + "]";
+}
+
+void requireOrdered(const Range& r, const TargetType& type, const char* what) {
+    if (std::isnan(r.min) || std::isnan(r.max) || r.min > r.max)
+        throw InvalidArgument("colorFilterMasks: type '" + type.name + "' has an invalid " + what +
+                              " range " + describeRange(r));
+}
+
+/// Integer limits [lo, hi] on an integer quantity v equivalent to r.min <= v <= r.max.
+std::pair<double, double> integerLimits(const Range& r, double vMax) {
+    const double lo = std::clamp(std::ceil(r.min), -1.0, vMax + 1.0);
+    const double hi = std::clamp(std::floor(r.max), -1.0, vMax + 1.0);
+    return {lo, hi};
+}
+
+/// Integer limits on max(R,G,B) equivalent to vmin <= max/fullScale <= vmax, exactly.
+std::pair<double, double> valueLimits(const Range& v, double fullScale) {
+    const auto ge = [&](double k) {  // k/fullScale >= v.min
+        if (!(v.min > 0.0)) return true;
+        if (k == 0.0) return false;
+        return compareFraction(k, fullScale, std::clamp(v.min, kMinLimit, kMaxLimit)) >= 0;
+    };
+    const auto le = [&](double k) {  // k/fullScale <= v.max
+        if (v.max < 0.0) return false;
+        if (k == 0.0) return true;
+        return compareFraction(k, fullScale, std::clamp(v.max, kMinLimit, kMaxLimit)) <= 0;
+    };
+    double lo = std::clamp(std::ceil(v.min * fullScale), 0.0, fullScale + 1.0);
+    while (lo > 0.0 && ge(lo - 1.0)) lo -= 1.0;
+    while (lo <= fullScale && !ge(lo)) lo += 1.0;
+    double hi = std::clamp(std::floor(v.max * fullScale), -1.0, fullScale);
+    while (hi < fullScale && le(hi + 1.0)) hi += 1.0;
+    while (hi >= 0.0 && !le(hi)) hi -= 1.0;
+    return {lo, hi};
+}
+
+template <typename T>
+RatioLimits<T> ratioLimits(const TargetType& type, std::uint32_t n) {
+    RatioLimits<T> lim{};
+    lim.rgLo = exactLimit<T>(type.redGreen.min, Bound::Lower, n);
+    lim.rgHi = exactLimit<T>(type.redGreen.max, Bound::Upper, n);
+    lim.rbLo = exactLimit<T>(type.redBlue.min, Bound::Lower, n);
+    lim.rbHi = exactLimit<T>(type.redBlue.max, Bound::Upper, n);
+    lim.bgLo = exactLimit<T>(type.blueGreen.min, Bound::Lower, n);
+    lim.bgHi = exactLimit<T>(type.blueGreen.max, Bound::Upper, n);
+    const double sumMax = 3.0 * n;
+    const auto [lo, hi] = type.brightness ? integerLimits(*type.brightness, sumMax)
+                                          : std::pair<double, double>{0.0, sumMax};
+    lim.sumLo = static_cast<T>(lo);
+    lim.sumHi = static_cast<T>(hi);
+    return lim;
+}
+
+template <typename T>
+HsvLimits<T> hsvLimits(const TargetType& type, std::uint32_t n, double fullScale) {
+    const HsvRanges& h = type.hsv;
+    HsvLimits<T> lim{};
+    lim.hueLo = static_cast<float>(h.hue.min);
+    lim.hueHi = static_cast<float>(h.hue.max);
+    lim.hueWraps = h.hue.min > h.hue.max;
+    lim.satLo = exactLimit<T>(h.saturation.min, Bound::Lower, n);
+    lim.satHi = exactLimit<T>(h.saturation.max, Bound::Upper, n);
+    lim.blackSatPasses = h.saturation.contains(0.0);
+    const auto [lo, hi] = valueLimits(h.value, fullScale);
+    lim.valLo = static_cast<T>(lo);
+    lim.valHi = static_cast<T>(hi);
+    return lim;
+}
+
+/// Float is exact for every limit of the type (always for 8-bit images)?
+bool floatIsExact(const TargetType& type, std::uint32_t n) {
+    const auto ok = [&](const Range& r) {
+        return limitIsExact<float>(neighbours(r.min, Bound::Lower, n), n) &&
+               limitIsExact<float>(neighbours(r.max, Bound::Upper, n), n);
+    };
+    if (type.filter == ColorFilterMethod::Hsv) return ok(type.hsv.saturation);
+    return ok(type.redGreen) && ok(type.redBlue) && ok(type.blueGreen);
+}
+
+void validateType(const TargetType& type) {
+    switch (type.filter) {
+        case ColorFilterMethod::RgbRatio:
+            requireOrdered(type.redGreen, type, "redGreen");
+            requireOrdered(type.redBlue, type, "redBlue");
+            requireOrdered(type.blueGreen, type, "blueGreen");
+            if (type.brightness) requireOrdered(*type.brightness, type, "brightness");
+            return;
+        case ColorFilterMethod::Hsv:
+            if (std::isnan(type.hsv.hue.min) || std::isnan(type.hsv.hue.max))
+                throw InvalidArgument("colorFilterMasks: type '" + type.name + "' has an invalid hue range " +
+                                      describeRange(type.hsv.hue));
+            requireOrdered(type.hsv.saturation, type, "saturation");
+            requireOrdered(type.hsv.value, type, "value");
+            return;
+    }
+    throw InvalidArgument("colorFilterMasks: type '" + type.name + "' has an unknown filter method " +
+                          std::to_string(static_cast<int>(type.filter)));
+}
+
+template <typename S>
+Plan makePlan(const TargetType& type, cv::Size size, int bitDepth) {
+    constexpr std::uint32_t n = std::numeric_limits<S>::max();
+    validateType(type);
+    Plan plan;
+    plan.window = searchWindow(type, size);
+    // Float (twice the SIMD width) whenever it is exact for this type's
+    // limits: always for 8-bit images; for 16-bit ones only when the limit's
+    // neighbouring fractions have small denominators (see limitIsExact).
+    const bool useFloat = floatIsExact(type, n);
+    if (type.filter == ColorFilterMethod::Hsv) {
+        const double fullScale = std::ldexp(1.0, bitDepth) - 1.0;
+        if (useFloat) {
+            plan.hsvF = hsvLimits<float>(type, n, fullScale);
+            plan.row = &hsvRowErased<S, float>;
+        } else {
+            plan.hsvD = hsvLimits<double>(type, n, fullScale);
+            plan.row = &hsvRowErased<S, double>;
+        }
+    } else if (useFloat) {
+        plan.ratioF = ratioLimits<float>(type, n);
+        plan.row = &ratioRowErased<S, float>;
+    } else {
+        plan.ratioD = ratioLimits<double>(type, n);
+        plan.row = &ratioRowErased<S, double>;
+    }
+    return plan;
+}
+
+/// A mask buffer of the image's size that can be written in place: reused
+/// when it is the caller's own continuous CV_8UC1 of that size, new otherwise
+/// (so a mask still referenced elsewhere, e.g. by a display, is never overwritten).
+void prepareMask(cv::Mat& mask, cv::Size size) {
+    const bool reusable = mask.type() == CV_8UC1 && mask.size() == size && !mask.isSubmatrix() &&
+                          mask.u != nullptr && mask.u->refcount == 1;
+    if (!reusable) mask = cv::Mat(size, CV_8UC1);
+}
+
+template <typename S>
+void filterImage(const cv::Mat& bgr, const std::vector<Plan>& plans, std::vector<cv::Mat>& masks) {
+    const int cols = bgr.cols;
+    for (int y = 0; y < bgr.rows; ++y) {
+        const S* row = bgr.ptr<S>(y);
+        for (std::size_t t = 0; t < plans.size(); ++t) {
+            const Plan& plan = plans[t];
+            std::uint8_t* out = masks[t].ptr<std::uint8_t>(y);
+            const cv::Rect& w = plan.window;
+            if (y < w.y || y >= w.y + w.height) {
+                std::memset(out, 0, static_cast<std::size_t>(cols));
+                continue;
+            }
+            std::memset(out, 0, static_cast<std::size_t>(w.x));
+            plan.row(row + 3 * w.x, out + w.x, w.width, plan);
+            std::memset(out + w.x + w.width, 0, static_cast<std::size_t>(cols - w.x - w.width));
+        }
+    }
+}
+
+}  // namespace
+
+void colorFilterMasks(const cv::Mat& bgr, int bitDepth, const std::vector<TargetType>& types,
+                      std::vector<cv::Mat>& masks) {
+    const int depth = bgr.depth();
+    if (bgr.empty() || bgr.channels() != 3 || (depth != CV_8U && depth != CV_16U))
+        throw FormatError("colorFilterMasks: the image must be 8- or 16-bit BGR, got " +
+                          cv::typeToString(bgr.type()) + " " + std::to_string(bgr.cols) + "x" +
+                          std::to_string(bgr.rows));
+    const int maxBits = depth == CV_8U ? 8 : 16;
+    if (bitDepth < 1 || bitDepth > maxBits)
+        throw InvalidArgument("colorFilterMasks: bit depth " + std::to_string(bitDepth) + " is not in 1.." +
+                              std::to_string(maxBits) + " for a " + cv::typeToString(bgr.type()) + " image");
+
+    std::vector<Plan> plans;
+    plans.reserve(types.size());
+    for (const TargetType& type : types)
+        plans.push_back(depth == CV_8U ? makePlan<std::uint8_t>(type, bgr.size(), bitDepth)
+                                       : makePlan<std::uint16_t>(type, bgr.size(), bitDepth));
+    masks.resize(types.size());
+    for (cv::Mat& mask : masks) prepareMask(mask, bgr.size());
+
+    if (depth == CV_8U)
+        filterImage<std::uint8_t>(bgr, plans, masks);
+    else
+        filterImage<std::uint16_t>(bgr, plans, masks);
+}
+
+cv::Mat applyMask(const cv::Mat& bgr, const cv::Mat& mask) {
+    if (mask.type() != CV_8UC1)
+        throw FormatError("applyMask: the mask must be CV_8UC1, got " + cv::typeToString(mask.type()));
+    if (bgr.size() != mask.size())
+        throw InvalidArgument("applyMask: the image is " + std::to_string(bgr.cols) + "x" +
+                              std::to_string(bgr.rows) + " but the mask " + std::to_string(mask.cols) + "x" +
+                              std::to_string(mask.rows));
+    cv::Mat out = cv::Mat::zeros(bgr.size(), bgr.type());
+    bgr.copyTo(out, mask);
+    return out;
+}
+
+}  // namespace avatar

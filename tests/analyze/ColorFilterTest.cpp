@@ -1,0 +1,429 @@
+#include <avatar/analyze/ImageColorFilter.h>
+#include <avatar/common/Error.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+namespace avatar {
+namespace {
+
+struct Bgr {
+    int b, g, r;
+};
+
+template <typename S>
+cv::Mat imageOf(const std::vector<Bgr>& pixels, int cols, int scale = 1) {
+    const int type = sizeof(S) == 1 ? CV_8UC3 : CV_16UC3;
+    cv::Mat image(static_cast<int>(pixels.size()) / cols, cols, type);
+    for (std::size_t i = 0; i < pixels.size(); ++i) {
+        auto& px = image.at<cv::Vec<S, 3>>(static_cast<int>(i) / cols, static_cast<int>(i) % cols);
+        px = {static_cast<S>(pixels[i].b * scale), static_cast<S>(pixels[i].g * scale),
+              static_cast<S>(pixels[i].r * scale)};
+    }
+    return image;
+}
+
+TargetType ratioType(Range rg, Range rb, Range bg) {
+    TargetType t;
+    t.name = "t";
+    t.redGreen = rg;
+    t.redBlue = rb;
+    t.blueGreen = bg;
+    return t;
+}
+
+cv::Mat filterOne(const cv::Mat& image, int bitDepth, const TargetType& type) {
+    std::vector<cv::Mat> masks;
+    colorFilterMasks(image, bitDepth, {type}, masks);
+    EXPECT_EQ(masks.size(), 1u);
+    EXPECT_EQ(masks[0].type(), CV_8UC1);
+    EXPECT_EQ(masks[0].size(), image.size());
+    return masks[0];
+}
+
+std::vector<int> maskValues(const cv::Mat& mask) {
+    std::vector<int> v;
+    for (int y = 0; y < mask.rows; ++y)
+        for (int x = 0; x < mask.cols; ++x) v.push_back(mask.at<std::uint8_t>(y, x));
+    return v;
+}
+
+bool sameMask(const cv::Mat& a, const cv::Mat& b) {
+    return a.size() == b.size() && a.type() == b.type() && cv::countNonZero(a != b) == 0;
+}
+
+// The 5x5 image: every pixel's verdict for the range 0.5..2 on all three
+// ratios, worked out by hand (ratios as R/G, R/B, B/G).
+const std::vector<Bgr> kHandPixels = {
+    {100, 100, 100},  // 1, 1, 1                       pass
+    {100, 50, 100},   // R/G = 2 (max), B/G = 2 (max)  pass
+    {100, 50, 101},   // R/G = 2.02                    fail
+    {50, 100, 50},    // R/G = 0.5 (min), B/G = 0.5    pass
+    {50, 100, 49},    // R/G = 0.49                    fail
+    {0, 0, 0},        // black: 0/0                    fail
+    {0, 100, 100},    // B = 0: R/B = inf              fail
+    {100, 0, 100},    // G = 0: R/G = inf              fail
+    {100, 100, 0},    // R = 0: R/G = 0 < 0.5          fail
+    {255, 255, 255},  // saturated, 1, 1, 1            pass
+    {255, 255, 0},    // R = 0                         fail
+    {0, 255, 255},    // B = 0                         fail
+    {200, 100, 200},  // R/G = 2, R/B = 1, B/G = 2     pass
+    {200, 100, 50},   // R/B = 0.25                    fail
+    {100, 200, 200},  // R/G = 1, R/B = 2, B/G = 0.5   pass
+    {100, 201, 200},  // B/G = 0.4975                  fail
+    {1, 1, 1},        // darkest grey                  pass
+    {1, 2, 1},        // 0.5, 1, 0.5                   pass
+    {1, 2, 0},        // R = 0                         fail
+    {0, 0, 1},        // 1/0 everywhere                fail
+    {128, 255, 255},  // 1, 1.99, 0.502                pass
+    {127, 255, 255},  // R/B = 2.008                   fail
+    {255, 128, 255},  // 1.99, 1, 1.99                 pass
+    {255, 127, 255},  // R/G = 2.008                   fail
+    {60, 90, 120},    // 1.333, 2, 0.667               pass
+};
+const std::vector<int> kHandExpected = {255, 255, 0,   255, 0, 0, 0,   0, 0, 255, 0,   0,  255,
+                                        0,   255, 0,   255, 255, 0, 0, 255, 0, 255, 0, 255};
+
+TEST(ColorFilter, HandBuiltImagePixelByPixel8And16Bit) {
+    const TargetType type = ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(kHandPixels, 5), 8, type)), kHandExpected);
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(kHandPixels, 5), 16, type)), kHandExpected);
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(kHandPixels, 5, 257), 16, type)), kHandExpected);
+}
+
+TEST(ColorFilter, ZeroRedPassesOnlyWhenRatioMinimaAreZero) {
+    const std::vector<Bgr> px = {{100, 100, 0}, {0, 100, 0}, {100, 0, 0}, {0, 0, 0}, {100, 100, 100}};
+    const TargetType type = ratioType({0.0, 2.0}, {0.0, 2.0}, {0.5, 2.0});
+    // R = 0 with G, B > 0: ratios 0, 0, 1; B = 0 or G = 0: 0/0; black: 0/0.
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(px, 5), 8, type)),
+              (std::vector<int>{255, 0, 0, 0, 255}));
+}
+
+TEST(ColorFilter, InfiniteRatioFailsEvenAnUnboundedMax) {
+    const std::vector<Bgr> px = {{100, 0, 100}, {0, 100, 100}, {100, 100, 100}};
+    const double inf = std::numeric_limits<double>::infinity();
+    const TargetType type = ratioType({0.0, inf}, {0.0, inf}, {0.0, inf});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 3), 16, type)), (std::vector<int>{0, 0, 255}));
+}
+
+// A limit that is a double next to a fraction: double(1/3) < 1/3 < next
+// double, double(0.1) > 1/10. The test is exact for the double limit, at 8
+// and 16 bits alike (a product rounded to double would call 0.1 * 2570 = 257).
+TEST(ColorFilter, RatioTestIsExactForTheDoubleLimit) {
+    const double third = 1.0 / 3.0;
+    const double tenth = 0.1;
+    ASSERT_LT(third * 3.0 - 1.0, 1e-15);  // sanity: these are the usual doubles
+    struct Case {
+        Range rg;
+        int g, r;
+        bool pass;
+    };
+    const std::vector<Case> cases = {
+        {{third, 10.0}, 3, 1, true},                        // 1/3 >= double(1/3)
+        {{0.0, third}, 3, 1, false},                        // 1/3 >  double(1/3)
+        {{0.0, std::nextafter(third, 1.0)}, 3, 1, true},    // next double above 1/3
+        {{tenth, 10.0}, 10, 1, false},                      // 1/10 < double(0.1)
+        {{0.0, tenth}, 10, 1, true},                        // 1/10 <= double(0.1)
+        {{std::nextafter(tenth, 0.0), 10.0}, 10, 1, true},  // previous double is below 1/10
+        {{0.25, 0.25}, 4, 1, true},                         // exactly representable: both ends inclusive
+        {{0.0, std::nextafter(0.25, 0.0)}, 4, 1, false},
+        {{std::nextafter(0.25, 1.0), 1.0}, 4, 1, false},
+        {{255.0, 255.0}, 1, 255, true},
+        {{0.0, 254.0}, 1, 255, false},
+    };
+    for (const Case& c : cases) {
+        for (int scale : {1, 257}) {
+            // B chosen so that R/B and B/G are 1-ish and within wide ranges.
+            const std::vector<Bgr> px = {{c.g, c.g, c.r}};
+            const TargetType type = ratioType(c.rg, {0.0, 1e9}, {0.0, 1e9});
+            const cv::Mat image = scale == 1 ? imageOf<std::uint8_t>(px, 1) : imageOf<std::uint16_t>(px, 1, scale);
+            const cv::Mat mask = filterOne(image, scale == 1 ? 8 : 16, type);
+            EXPECT_EQ(mask.at<std::uint8_t>(0, 0), c.pass ? 255 : 0)
+                << "R/G = " << c.r << "/" << c.g << " in [" << c.rg.min << ", " << c.rg.max << "] x" << scale;
+        }
+    }
+}
+
+// Exact reference: sign of r/g - x for a double x >= 0, in 128-bit integers.
+__extension__ typedef __int128 Int128;
+int exactCompare(std::int64_t r, std::int64_t g, double x) {
+    if (x < 1e-9) return r > 0 ? 1 : (x > 0.0 ? -1 : 0);  // below every r/g > 0
+    int e = 0;
+    const double f = std::frexp(x, &e);
+    const auto m = static_cast<std::int64_t>(std::ldexp(f, 53));  // x = m * 2^(e-53)
+    const int s = e - 53;
+    Int128 lhs = r, rhs = static_cast<Int128>(m) * g;
+    if (s >= 0) rhs <<= s; else lhs <<= -s;
+    return lhs < rhs ? -1 : (lhs > rhs ? 1 : 0);
+}
+
+TEST(ColorFilter, RatioTestAgreesWithExactArithmeticOnRandom16BitPixels) {
+    cv::RNG rng(7);
+    for (int trial = 0; trial < 40; ++trial) {
+        // Limits: random, or the double nearest a random fraction, or one ulp beside it.
+        auto limit = [&]() {
+            const double q = rng.uniform(1, 65536);
+            const double frac = rng.uniform(0, 65536) / q;
+            switch (rng.uniform(0, 4)) {
+                case 0: return frac;
+                case 1: return std::nextafter(frac, 0.0);
+                case 2: return std::nextafter(frac, 1e9);
+                default: return rng.uniform(0.0, 4.0);
+            }
+        };
+        double lo = limit(), hi = limit();
+        if (lo > hi) std::swap(lo, hi);
+        const TargetType type = ratioType({lo, hi}, {0.0, 1e9}, {0.0, 1e9});
+        // Pixels whose R/G is at or next to the limits, and random ones.
+        cv::Mat image(1, 512, CV_16UC3);
+        for (int x = 0; x < image.cols; ++x) {
+            int g = rng.uniform(1, 65536);
+            int r = rng.uniform(0, 65536);
+            if (x % 3 != 0) {
+                const double target = x % 3 == 1 ? lo : hi;
+                g = rng.uniform(1, 65536);
+                const double rr = std::round(target * g) + rng.uniform(-1, 2);
+                r = static_cast<int>(std::clamp(rr, 0.0, 65535.0));
+            }
+            image.at<cv::Vec3w>(0, x) = {static_cast<std::uint16_t>(g), static_cast<std::uint16_t>(g),
+                                         static_cast<std::uint16_t>(r)};
+        }
+        const cv::Mat mask = filterOne(image, 16, type);
+        for (int x = 0; x < image.cols; ++x) {
+            const cv::Vec3w p = image.at<cv::Vec3w>(0, x);
+            const bool expected = exactCompare(p[2], p[1], lo) >= 0 && exactCompare(p[2], p[1], hi) <= 0 &&
+                                  exactCompare(p[2], p[0], 1e9) <= 0;
+            ASSERT_EQ(mask.at<std::uint8_t>(0, x), expected ? 255 : 0)
+                << "R/G = " << p[2] << "/" << p[1] << " limits " << lo << " " << hi;
+        }
+    }
+}
+
+TEST(ColorFilter, EightAndSixteenBitGiveIdenticalMasksForScaledImages) {
+    cv::Mat image8(48, 64, CV_8UC3);
+    cv::RNG rng(11);
+    rng.fill(image8, cv::RNG::UNIFORM, 0, 256);
+    cv::Mat image16;
+    image8.convertTo(image16, CV_16UC3, 257.0);
+
+    std::vector<TargetType> types8 = {ratioType({0.8, 1.25}, {0.5, 2.0}, {0.3, 1.1}),
+                                      ratioType({1.0 / 3.0, 3.0}, {0.1, 0.7}, {0.0, 1e9})};
+    types8[0].brightness = Range{100.0, 600.0};
+    TargetType hsv;
+    hsv.name = "hsv";
+    hsv.filter = ColorFilterMethod::Hsv;
+    hsv.hsv = {{300.0, 60.0}, {0.25, 0.9}, {0.2, 0.95}};
+    types8.push_back(hsv);
+    std::vector<TargetType> types16 = types8;
+    types16[0].brightness = Range{100.0 * 257, 600.0 * 257};
+
+    std::vector<cv::Mat> m8, m16;
+    colorFilterMasks(image8, 8, types8, m8);
+    colorFilterMasks(image16, 16, types16, m16);
+    ASSERT_EQ(m8.size(), 3u);
+    for (std::size_t t = 0; t < m8.size(); ++t) {
+        EXPECT_TRUE(sameMask(m8[t], m16[t])) << "type " << t;
+        EXPECT_GT(cv::countNonZero(m8[t]), 20) << "type " << t << " should pass some pixels";
+        EXPECT_LT(cv::countNonZero(m8[t]), static_cast<int>(image8.total()) - 20) << "type " << t << " should fail some pixels";
+    }
+}
+
+TEST(ColorFilter, SeveralTypesInOnePassEqualEachTypeAlone) {
+    cv::Mat image(37, 53, CV_16UC3);
+    cv::RNG rng(3);
+    rng.fill(image, cv::RNG::UNIFORM, 0, 65536);
+    std::vector<TargetType> types = {ratioType({0.8, 1.25}, {0.5, 2.0}, {0.3, 1.1}),
+                                     ratioType({0.2, 0.9}, {0.1, 5.0}, {1.0, 3.0})};
+    types[1].window = {5, 7, 30, 20};
+    types[1].brightness = Range{30000.0, 120000.0};
+    TargetType hsv;
+    hsv.name = "hsv";
+    hsv.filter = ColorFilterMethod::Hsv;
+    hsv.hsv = {{100.0, 200.0}, {0.1, 1.0}, {0.0, 1.0}};
+    hsv.window = {40, 0, 100, 10};
+    types.push_back(hsv);
+
+    std::vector<cv::Mat> together;
+    colorFilterMasks(image, 16, types, together);
+    ASSERT_EQ(together.size(), types.size());
+    for (std::size_t t = 0; t < types.size(); ++t) {
+        EXPECT_TRUE(sameMask(together[t], filterOne(image, 16, types[t]))) << "type " << t;
+        EXPECT_GT(cv::countNonZero(together[t]), 0) << "type " << t;
+    }
+}
+
+TEST(ColorFilter, SearchWindowIsClippedAndTheRestOfTheMaskIsZero) {
+    cv::Mat image(5, 5, CV_8UC3, cv::Scalar(100, 100, 100));  // every pixel passes
+    TargetType type = ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0});
+    type.window = {3, 2, 10, 10};  // partly outside: columns 3..4, rows 2..4
+    const cv::Mat mask = filterOne(image, 8, type);
+    for (int y = 0; y < 5; ++y)
+        for (int x = 0; x < 5; ++x)
+            EXPECT_EQ(mask.at<std::uint8_t>(y, x), (x >= 3 && y >= 2) ? 255 : 0) << x << "," << y;
+
+    type.window = {1, 1, 2, 3};  // inside
+    const cv::Mat inside = filterOne(image, 8, type);
+    EXPECT_EQ(cv::countNonZero(inside), 6);
+    EXPECT_EQ(cv::countNonZero(inside(cv::Rect(1, 1, 2, 3))), 6);
+
+    type.window = {};  // unset: whole image
+    EXPECT_EQ(cv::countNonZero(filterOne(image, 8, type)), 25);
+
+    type.window = {5, 0, 3, 3};  // entirely outside
+    std::vector<cv::Mat> masks;
+    EXPECT_THROW(colorFilterMasks(image, 8, {type}, masks), InvalidArgument);
+}
+
+TEST(ColorFilter, BrightnessRangeIsInclusiveOnRPlusGPlusB) {
+    // Sums 299, 300, 301, 600, 601 (every ratio within 0.5..2).
+    const std::vector<Bgr> px = {{99, 100, 100}, {100, 100, 100}, {101, 100, 100}, {200, 200, 200}, {201, 200, 200}};
+    TargetType type = ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0});
+    type.brightness = Range{300.0, 600.0};
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 5), 16, type)),
+              (std::vector<int>{0, 255, 255, 255, 0}));
+    type.brightness = Range{299.5, 600.5};  // fractional limits: 300..600 as integers
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 5), 16, type)),
+              (std::vector<int>{0, 255, 255, 255, 0}));
+    type.brightness = Range{0.0, 1e12};
+    EXPECT_EQ(cv::countNonZero(filterOne(imageOf<std::uint8_t>(px, 5), 8, type)), 5);
+}
+
+TargetType hsvType(Range hue, Range sat, Range val) {
+    TargetType t;
+    t.name = "hsv";
+    t.filter = ColorFilterMethod::Hsv;
+    t.hsv = {hue, sat, val};
+    return t;
+}
+
+TEST(ColorFilter, HsvHueWrapsThroughZero) {
+    // Hues: 0 (red), 360 - 60*43/255 = 349.88, 60*43/255 = 10.12, 120 (green),
+    // 240 (blue), grey (hue 0 but saturation 0), black, 60 (yellow, r = g).
+    const std::vector<Bgr> px = {{0, 0, 255},   {43, 0, 255},   {0, 43, 255}, {0, 255, 0},
+                                 {255, 0, 0},   {128, 128, 128}, {0, 0, 0},   {0, 255, 255}};
+    const TargetType red = hsvType({340.0, 20.0}, {0.2, 1.0}, {0.0, 1.0});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(px, 8), 8, red)),
+              (std::vector<int>{255, 255, 255, 0, 0, 0, 0, 0}));
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 8, 257), 16, red)),
+              (std::vector<int>{255, 255, 255, 0, 0, 0, 0, 0}));
+    // Not wrapping; limits exactly on 60 and 120 are inclusive.
+    const TargetType yellowGreen = hsvType({60.0, 120.0}, {0.0, 1.0}, {0.0, 1.0});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(px, 8), 8, yellowGreen)),
+              (std::vector<int>{0, 0, 0, 255, 0, 0, 0, 255}));
+    // Saturation 0 allowed: grey and black have hue 0, so a range through 0
+    // takes them; 349.88 and 10.12 are outside 350..5.
+    const TargetType anyRed = hsvType({350.0, 5.0}, {0.0, 1.0}, {0.0, 1.0});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(px, 8), 8, anyRed)),
+              (std::vector<int>{255, 0, 0, 0, 0, 255, 255, 0}));
+}
+
+TEST(ColorFilter, HsvSaturationAndValueLimitsAreExactAndRelativeToBitDepth) {
+    // S = (max - min)/max, V = max / (2^bitDepth - 1).
+    const std::vector<Bgr> px = {{50, 50, 100}, {49, 49, 100}, {51, 51, 100}, {0, 0, 2047}, {0, 0, 2048}};
+    const TargetType half = hsvType({0.0, 360.0}, {0.5, 0.5}, {0.0, 1.0});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 5), 12, half)), (std::vector<int>{255, 0, 0, 0, 0}));
+    // V = 2047/4095 < 0.5 < 2048/4095 at 12 bits.
+    const TargetType bright = hsvType({0.0, 360.0}, {0.0, 1.0}, {0.5, 1.0});
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 5), 12, bright)), (std::vector<int>{0, 0, 0, 0, 255}));
+    // At 16 bits every one of these is dark.
+    const TargetType dark = hsvType({0.0, 360.0}, {0.0, 1.0}, {0.0, 0.04});
+    EXPECT_EQ(cv::countNonZero(filterOne(imageOf<std::uint16_t>(px, 5), 16, dark)), 5);
+}
+
+TEST(ColorFilter, HsvAgreesWithOpenCvAwayFromTheLimits) {
+    cv::Mat image(60, 80, CV_16UC3);
+    cv::RNG rng(5);
+    rng.fill(image, cv::RNG::UNIFORM, 0, 65536);
+    cv::Mat imageF, hsv;
+    image.convertTo(imageF, CV_32FC3, 1.0 / 65535.0);
+    cv::cvtColor(imageF, hsv, cv::COLOR_BGR2HSV);  // H in degrees, S and V in [0, 1]
+    const TargetType type = hsvType({300.0, 45.0}, {0.3, 0.8}, {0.25, 0.9});
+    const cv::Mat mask = filterOne(image, 16, type);
+    int compared = 0;
+    for (int y = 0; y < image.rows; ++y) {
+        for (int x = 0; x < image.cols; ++x) {
+            const cv::Vec3f p = hsv.at<cv::Vec3f>(y, x);
+            const auto near = [](double v, double limit) { return std::abs(v - limit) < 1e-3; };
+            if (near(p[0], 300) || near(p[0], 45) || near(p[1], 0.3) || near(p[1], 0.8) || near(p[2], 0.25) ||
+                near(p[2], 0.9))
+                continue;
+            const bool expected = (p[0] >= 300 || p[0] <= 45) && p[1] >= 0.3 && p[1] <= 0.8 && p[2] >= 0.25 &&
+                                  p[2] <= 0.9;
+            EXPECT_EQ(mask.at<std::uint8_t>(y, x), expected ? 255 : 0) << x << "," << y;
+            ++compared;
+        }
+    }
+    EXPECT_GT(compared, 4600);
+}
+
+TEST(ColorFilter, RejectsBadImagesDepthsAndRanges) {
+    std::vector<cv::Mat> masks;
+    const TargetType ok = ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0});
+    EXPECT_THROW(colorFilterMasks(cv::Mat(4, 4, CV_32FC3), 16, {ok}, masks), FormatError);
+    EXPECT_THROW(colorFilterMasks(cv::Mat(4, 4, CV_8UC1), 8, {ok}, masks), FormatError);
+    EXPECT_THROW(colorFilterMasks(cv::Mat(), 8, {ok}, masks), FormatError);
+    EXPECT_THROW(colorFilterMasks(cv::Mat(4, 4, CV_8UC3), 9, {ok}, masks), InvalidArgument);
+    EXPECT_THROW(colorFilterMasks(cv::Mat(4, 4, CV_16UC3), 0, {ok}, masks), InvalidArgument);
+    EXPECT_THROW(colorFilterMasks(cv::Mat(4, 4, CV_16UC3), 17, {ok}, masks), InvalidArgument);
+    const cv::Mat image(4, 4, CV_16UC3, cv::Scalar::all(1000));
+    EXPECT_THROW(colorFilterMasks(image, 16, {ratioType({2.0, 1.0}, {0.5, 2.0}, {0.5, 2.0})}, masks),
+                 InvalidArgument);
+    EXPECT_THROW(colorFilterMasks(image, 16, {ratioType({0.5, std::nan("")}, {0.5, 2.0}, {0.5, 2.0})}, masks),
+                 InvalidArgument);
+    EXPECT_THROW(colorFilterMasks(image, 16, {hsvType({std::nan(""), 1.0}, {0.0, 1.0}, {0.0, 1.0})}, masks),
+                 InvalidArgument);
+    try {
+        TargetType bad = ok;
+        bad.name = "duck";
+        bad.brightness = Range{10.0, 5.0};
+        colorFilterMasks(image, 16, {bad}, masks);
+        FAIL() << "no exception";
+    } catch (const InvalidArgument& e) {
+        EXPECT_NE(std::string(e.what()).find("duck"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("brightness"), std::string::npos) << e.what();
+    }
+    // No types: no masks.
+    colorFilterMasks(image, 16, {}, masks);
+    EXPECT_TRUE(masks.empty());
+}
+
+TEST(ColorFilter, MaskStillReferencedElsewhereIsNotOverwritten) {
+    const cv::Mat image(3, 3, CV_8UC3, cv::Scalar(100, 100, 100));
+    const TargetType type = ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0});
+    std::vector<cv::Mat> masks(1, cv::Mat(3, 3, CV_8UC1, cv::Scalar(7)));
+    const cv::Mat kept = masks[0];  // e.g. held by a display
+    colorFilterMasks(image, 8, {type}, masks);
+    EXPECT_EQ(cv::countNonZero(kept != 7), 0);
+    EXPECT_EQ(cv::countNonZero(masks[0]), 9);
+    // A mask owned only by the vector is reused in place.
+    const std::uint8_t* buffer = masks[0].data;
+    colorFilterMasks(image, 8, {type}, masks);
+    EXPECT_EQ(masks[0].data, buffer);
+}
+
+TEST(ApplyMask, KeepsPixelsWhereTheMaskIsSet) {
+    cv::Mat image(2, 2, CV_16UC3);
+    image.at<cv::Vec3w>(0, 0) = {1, 2, 3};
+    image.at<cv::Vec3w>(0, 1) = {4, 5, 6};
+    image.at<cv::Vec3w>(1, 0) = {7, 8, 9};
+    image.at<cv::Vec3w>(1, 1) = {65535, 65535, 65535};
+    cv::Mat mask = (cv::Mat_<std::uint8_t>(2, 2) << 255, 0, 0, 255);
+    const cv::Mat out = applyMask(image, mask);
+    ASSERT_EQ(out.type(), CV_16UC3);
+    EXPECT_EQ(out.at<cv::Vec3w>(0, 0), cv::Vec3w(1, 2, 3));
+    EXPECT_EQ(out.at<cv::Vec3w>(0, 1), cv::Vec3w(0, 0, 0));
+    EXPECT_EQ(out.at<cv::Vec3w>(1, 0), cv::Vec3w(0, 0, 0));
+    EXPECT_EQ(out.at<cv::Vec3w>(1, 1), cv::Vec3w(65535, 65535, 65535));
+    EXPECT_THROW(applyMask(image, cv::Mat(3, 2, CV_8UC1)), InvalidArgument);
+    EXPECT_THROW(applyMask(image, cv::Mat(2, 2, CV_16UC1)), FormatError);
+}
+
+}  // namespace
+}  // namespace avatar
