@@ -111,16 +111,25 @@ int main(int argc, char** argv) {
             const std::filesystem::path left = vm["left"].as<std::string>();
             const std::filesystem::path right = vm["right"].as<std::string>();
             StereoImagePair pair;
-            if (left.extension() == ".raw") {
-                const auto ln = RawImageName::parse(left.filename().string());
-                const auto rn = RawImageName::parse(right.filename().string());
-                PairLayout layout{ln.geometry.format, ln.geometry.bayerPattern, ln.geometry.bitDepth};
-                pair = StereoImagePair(StereoImagePairFileIO::readRaw(left),
-                                       StereoImagePairFileIO::readRaw(right), layout,
-                                       {ln.group, ln.member, {}, {}});
-                if (rn.group != ln.group || rn.member != ln.member)
-                    std::cerr << "avatar-info: warning: left is group/member " << ln.group << "/"
-                              << ln.member << ", right is " << rn.group << "/" << rn.member << "\n";
+            std::optional<RawImageName> ln, rn;
+            try {
+                ln = RawImageName::parse(left.filename().string());
+                rn = RawImageName::parse(right.filename().string());
+            } catch (const FormatError&) {
+                if (left.extension() == ".raw") throw;  // a raw file is unreadable without its name
+                ln.reset();
+            }
+            if (ln && rn) {
+                // Files named as in docs/formats.md: the name gives the geometry.
+                PairLayout layout{ln->geometry.format, ln->geometry.bayerPattern, ln->geometry.bitDepth};
+                auto read = [](const std::filesystem::path& p) {
+                    return p.extension() == ".raw" ? StereoImagePairFileIO::readRaw(p)
+                                                   : StereoImagePairFileIO::readLossless(p);
+                };
+                pair = StereoImagePair(read(left), read(right), layout, {ln->group, ln->member, {}, {}});
+                if (rn->group != ln->group || rn->member != ln->member)
+                    std::cerr << "avatar-info: warning: left is group/member " << ln->group << "/"
+                              << ln->member << ", right is " << rn->group << "/" << rn->member << "\n";
             } else {
                 if (!config) {
                     std::cerr << "avatar-info: a .png/.tif pair needs --config to say what the pixels are\n";

@@ -1,0 +1,141 @@
+// avatar-analyze: runs the AVATAR analysis on the pairs of a recorded session
+// and prints the targets of each iteration. User guide: docs/tools/avatar-analyze.md
+
+#include <avatar/acquire/SessionLog.h>
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/common/Error.h>
+#include <avatar/common/Logging.h>
+#include <avatar/common/StereoImagePairFileIO.h>
+#include <avatar/config/ConfigXml.h>
+
+#include <boost/program_options.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace po = boost::program_options;
+using namespace avatar;
+
+namespace {
+
+std::string flagsText(std::uint32_t f) {
+    std::string s;
+    auto add = [&](std::uint32_t bit, const char* name) {
+        if (f & bit) s += (s.empty() ? "" : ",") + std::string(name);
+    };
+    add(kTargetStereo, "stereo");
+    add(kTargetLeftOnly, "left-only");
+    add(kTargetRightOnly, "right-only");
+    add(kTargetAtBorder, "border");
+    add(kTargetShapeCorrected, "shape-corrected");
+    return s;
+}
+
+void printTargets(const VisionTargets& r) {
+    std::printf("iteration %llu (group %u member %u): %zu target(s), visibility %s%s%s\n",
+                static_cast<unsigned long long>(r.iteration), r.acquisition.group, r.acquisition.member,
+                r.targets.size(),
+                r.visibility == Visibility::Good ? "good" : r.visibility == Visibility::Poor ? "POOR" : "unknown",
+                r.visibilityReason.empty() ? "" : ": ", r.visibilityReason.c_str());
+    for (const VisionTarget& t : r.targets) {
+        std::printf("  %-12s %-22s", t.type.c_str(), flagsText(t.flags).c_str());
+        if (t.positionVisionMm)
+            std::printf(" vision %8.1f %8.1f %8.1f mm", t.positionVisionMm->x, t.positionVisionMm->y,
+                        t.positionVisionMm->z);
+        if (t.positionBaseMm)
+            std::printf("  base %8.1f %8.1f %8.1f mm", t.positionBaseMm->x, t.positionBaseMm->y, t.positionBaseMm->z);
+        if (t.centroidLeftPx) std::printf("  L (%7.2f, %7.2f)", t.centroidLeftPx->x, t.centroidLeftPx->y);
+        if (t.centroidRightPx) std::printf("  R (%7.2f, %7.2f)", t.centroidRightPx->x, t.centroidRightPx->y);
+        std::printf("\n");
+    }
+    std::printf("  timings:");
+    for (const StageTiming& s : r.timings) std::printf(" %s %.1f ms;", s.stage.c_str(), s.milliseconds);
+    std::printf("\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    po::options_description options("avatar-analyze: analyse the pairs of a recorded session");
+    options.add_options()
+        ("help,h", "show this help")
+        ("session,s", po::value<std::string>(), "session directory (docs/formats.md)")
+        ("config,c", po::value<std::string>(), "use this configuration instead of the recorded one")
+        ("iterations,n", po::value<int>()->default_value(0), "analyse at most this many iterations (0: all)")
+        ("marked", po::value<std::string>(), "write the marked images of each iteration into this directory")
+        ("log", po::value<std::string>()->default_value("warn"), "log priority: debug, info, notice, warn, error");
+    po::variables_map vm;
+    try {
+        po::store(po::parse_command_line(argc, argv, options), vm);
+        po::notify(vm);
+    } catch (const po::error& e) {
+        std::cerr << "avatar-analyze: " << e.what() << "\n" << options;
+        return 2;
+    }
+    if (vm.count("help") || !vm.count("session")) {
+        std::cout << options;
+        return vm.count("help") ? 0 : 2;
+    }
+    int failures = 0;
+    try {
+        logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
+        const std::filesystem::path dir = vm["session"].as<std::string>();
+        SessionLogReader reader(dir);
+        for (const std::string& e : reader.errors()) {
+            std::cerr << "avatar-analyze: damaged record: " << e << "\n";
+            ++failures;
+        }
+        std::optional<AvatarConfig> fixed;
+        if (vm.count("config")) fixed = readConfigFile(vm["config"].as<std::string>());
+        std::unique_ptr<AnalyzeStereoImagePair> analyzer;
+        std::optional<std::uint32_t> version;
+        const int limit = vm["iterations"].as<int>();
+        int done = 0;
+        for (const SessionRecord& record : reader.records()) {
+            if (limit > 0 && done >= limit) break;
+            if (!analyzer || (!fixed && version != record.configVersion)) {
+                AvatarConfig config;
+                if (fixed) {
+                    config = *fixed;
+                } else {
+                    const auto xml = reader.configXml(record.configVersion);
+                    if (!xml) {
+                        std::cerr << "avatar-analyze: iteration " << record.iteration << ": configuration "
+                                  << record.configVersion << " is not in the log; skipped\n";
+                        ++failures;
+                        continue;
+                    }
+                    config = readConfigString(*xml, reader.logPath().string() + " (config " +
+                                                        std::to_string(record.configVersion) + ")");
+                }
+                analyzer = std::make_unique<AnalyzeStereoImagePair>(config, dir);
+                version = record.configVersion;
+            }
+            try {
+                const VisionTargets result = analyzer->analyze(reader.loadPair(record), record.iteration);
+                printTargets(result);
+                if (vm.count("marked")) {
+                    const std::filesystem::path out = vm["marked"].as<std::string>();
+                    std::filesystem::create_directories(out);
+                    const auto marked = analyzer->markedImages();
+                    const std::string stem = "marked_" + std::to_string(record.iteration);
+                    const PairLayout layout{PixelFormat::Bgr, BayerPattern::BG, 8};
+                    StereoImagePairFileIO::writeDisplay(out / (stem + "_L.jpg"), marked.left(), layout);
+                    StereoImagePairFileIO::writeDisplay(out / (stem + "_R.jpg"), marked.right(), layout);
+                }
+            } catch (const Error& e) {
+                std::cerr << "avatar-analyze: iteration " << record.iteration << ": " << e.what() << "\n";
+                ++failures;
+            }
+            ++done;
+        }
+    } catch (const Error& e) {
+        std::cerr << "avatar-analyze: " << e.what() << "\n";
+        return 1;
+    }
+    return failures == 0 ? 0 : 1;
+}
