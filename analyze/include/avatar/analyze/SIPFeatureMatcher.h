@@ -24,20 +24,67 @@ struct FeatureMatch {
 /// Shape difference of two features from the M (distances) and S (unit
 /// vectors) matrices of their nine interest points, Figure 3-14: the weighted
 /// sum over point pairs of |M_a - M_b| / scale and |S_a - S_b|.
+///
+/// Over the 36 unordered pairs (i, j) of Feature::interestPoints():
+///   error = magnitudeWeight * sum |M_a - M_b| / (0.5 * (sum M_a + sum M_b))
+///         + directionWeight * mean |S_a - S_b|
+/// i.e. the mean distance difference divided by the mean distance of the two
+/// features. Scaling both features by the same factor leaves the error
+/// unchanged (one maxError serves near and far targets), while a size
+/// difference between the two still counts. Each term lies in [0, 2], so the
+/// error lies in [0, 2 (magnitudeWeight + directionWeight)]. Coincident points
+/// (one-pixel or one-row features) have S = (0, 0), as the thesis's diagonal,
+/// and two point-like features have a magnitude term of 0: never NaN.
+/// Symmetric: shapeError(a, b) == shapeError(b, a).
 double shapeError(const Feature& a, const Feature& b, const ShapeMatchConfig& weights);
 
 /// Fundamental matrix F of Appendix A: l_right = F p_left for homogeneous pixels.
+/// F = K_r^-T [T]x R K_l^-1 with right_T_left = (R, T) and K = [fc1, fc1 alphaC,
+/// cc1; 0, fc2, cc2; 0, 0, 1] (the thesis prints K_r^T, a typo), so that
+/// p_r^T F p_l = 0. It holds for undistorted pixels K x_n; with lens distortion
+/// undistort first (normalizePixel(), then normalizedToPixel()).
 cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
 
+/// Pairs the features of the left and right images by MatchConfig::method.
+///
+/// Every method admits a pair only when the larger area is at most
+/// shape.maxAreaRatio times the smaller and the shape error is at most
+/// shape.maxError; among several admissible right features a left feature
+/// takes the one of least shape error (equal errors: the lower right index).
+/// - Shape (Figure 3-15): every right feature with x_left > x_right (centroids,
+///   pixels) is admissible. O(n_left * n_right) shape errors.
+/// - EpipolarBox (Figure 3-16): right features whose centroid satisfies
+///   boxDxMin < x_left - x_right < boxDxMax and boxDyMin < y_left - y_right <
+///   boxDyMax, in distorted pixels as the thesis's box.
+/// - EpipolarLine: centroids are undistorted (normalizePixel) and mapped to
+///   undistorted pixels; a right feature is admissible when its distance to
+///   the epipolar line F p_left is at most maxEpipolarDistancePx and the pair
+///   triangulates to a left-camera depth z in [minRangeMm, maxRangeMm] (the
+///   midpoint triangulation of StereoCoordinateCalculator, Figure 3-18).
+/// Box and line look up candidates in a grid of the right centroids, so their
+/// cost grows with the number of candidates, not with n_left * n_right.
+///
+/// HandleRepeatMatches: a right feature chosen by several left features goes to
+/// the lowest shape error (equal errors: the lower left index); the others are
+/// voided and stay unmatched, as in the thesis. They do not fall back to their
+/// next-best candidate: with look-alike targets that candidate is most often
+/// another target's image, and a wrong pair sends the manipulator to a wrong
+/// position, while a missed target is found again in the next image pair.
+///
+/// Immutable after construction; match() is safe to call from several threads.
 class SIPFeatureMatcher {
 public:
+    /// Throws avatar::InvalidArgument naming the field when the configuration
+    /// cannot be used (empty box, negative distance or weights, depth range not
+    /// 0 < min < max, maxAreaRatio < 1, focal length not positive).
     SIPFeatureMatcher(const MatchConfig& match, const StereoSystemConfig& stereo);
 
     /// Pairs left and right features; each feature is used at most once. A
     /// right feature claimed by several left features goes to the lowest
     /// shape error (HandleRepeatMatches). Matches are ordered by left index.
     /// Cost grows with the number of candidates, not with left x right, for
-    /// the box and line methods.
+    /// the box and line methods. Throws avatar::InvalidArgument when a feature
+    /// has an area below 1 or a centroid that is not finite.
     std::vector<FeatureMatch> match(const std::vector<Feature>& left,
                                     const std::vector<Feature>& right) const;
 

@@ -1,0 +1,537 @@
+#include <avatar/analyze/SIPFeatureMatcher.h>
+
+#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/Error.h>
+#include <avatar/common/Logging.h>
+
+#include <log4cpp/Category.hh>
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <sstream>
+#include <string>
+
+namespace avatar {
+
+namespace {
+
+log4cpp::Category& logger() {
+    // Categories live as long as log4cpp; look this one up once.
+    static log4cpp::Category& category = logging::category("analyze");
+    return category;
+}
+
+constexpr std::size_t kInterestPoints = 9;
+constexpr std::size_t kPairs = kInterestPoints * (kInterestPoints - 1) / 2;  // 36
+
+/// M and S of Figure 3-14 for the unordered pairs i < j. The thesis fills the
+/// full 9 x 9 matrices; M is symmetric and S antisymmetric, so |M_a - M_b| and
+/// |S_a - S_b| take the same values on (i, j) and (j, i) and the diagonal adds
+/// zeros: the mean over the 36 pairs equals the mean over the 72 off-diagonal
+/// entries.
+struct ShapeDescriptor {
+    std::array<double, kPairs> magnitude{};
+    std::array<double, kPairs> directionX{};
+    std::array<double, kPairs> directionY{};
+    double magnitudeSum{0.0};
+};
+
+ShapeDescriptor describe(const Feature& feature) {
+    const std::array<cv::Point2d, kInterestPoints> p = feature.interestPoints();
+    ShapeDescriptor d;
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < kInterestPoints; ++i)
+        for (std::size_t j = i + 1; j < kInterestPoints; ++j, ++k) {
+            const double dx = p[i].x - p[j].x;
+            const double dy = p[i].y - p[j].y;
+            const double m = std::sqrt(dx * dx + dy * dy);
+            d.magnitude[k] = m;
+            // Coincident points: no direction, (0, 0) as the thesis's diagonal.
+            if (m > 0.0) {
+                const double inverse = 1.0 / m;
+                d.directionX[k] = dx * inverse;
+                d.directionY[k] = dy * inverse;
+            }
+            d.magnitudeSum += m;
+        }
+    return d;
+}
+
+double shapeErrorOf(const ShapeDescriptor& a, const ShapeDescriptor& b,
+                    const ShapeMatchConfig& weights) {
+    double magnitudeDiff = 0.0;
+    double directionDiff = 0.0;
+    for (std::size_t k = 0; k < kPairs; ++k) {
+        magnitudeDiff += std::abs(a.magnitude[k] - b.magnitude[k]);
+        const double ux = a.directionX[k] - b.directionX[k];
+        const double uy = a.directionY[k] - b.directionY[k];
+        directionDiff += std::sqrt(ux * ux + uy * uy);
+    }
+    // sum|dM| / (0.5 (sum M_a + sum M_b)) = mean|dM| / mean of the two mean distances.
+    const double scale = 0.5 * (a.magnitudeSum + b.magnitudeSum);
+    const double magnitudeTerm = scale > 0.0 ? magnitudeDiff / scale : 0.0;
+    const double directionTerm = directionDiff / static_cast<double>(kPairs);
+    return weights.magnitudeWeight * magnitudeTerm + weights.directionWeight * directionTerm;
+}
+
+bool areasCompatible(const Feature& a, const Feature& b, double maxAreaRatio) {
+    const double small = std::min(a.area, b.area);
+    const double large = std::max(a.area, b.area);
+    return large <= maxAreaRatio * small;
+}
+
+/// Camera matrix K of Appendix A in the Bouguet convention (skew fc1 * alphaC).
+cv::Matx33d cameraMatrix(const CameraIntrinsics& c) {
+    return {c.fc[0], c.fc[0] * c.alphaC, c.cc[0], 0.0, c.fc[1], c.cc[1], 0.0, 0.0, 1.0};
+}
+
+cv::Matx33d skew(const cv::Vec3d& t) {
+    return {0.0, -t[2], t[1], t[2], 0.0, -t[0], -t[1], t[0], 0.0};
+}
+
+/// A uniform grid over 2-D points with compressed cell lists. Queries visit the
+/// cells that overlap a rectangle, so they cost the cells and points near the
+/// rectangle, not all points. Points that are not finite are left out.
+class PointGrid {
+public:
+    explicit PointGrid(const std::vector<cv::Point2d>& points) {
+        double minX = std::numeric_limits<double>::infinity(), minY = minX;
+        double maxX = -minX, maxY = -minX;
+        std::size_t finite = 0;
+        for (const cv::Point2d& p : points) {
+            if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+            minX = std::min(minX, p.x);
+            maxX = std::max(maxX, p.x);
+            minY = std::min(minY, p.y);
+            maxY = std::max(maxY, p.y);
+            ++finite;
+        }
+        if (finite == 0) return;
+        originX_ = minX;
+        originY_ = minY;
+        const double width = std::max(maxX - minX, 1.0);
+        const double height = std::max(maxY - minY, 1.0);
+        // About one point per cell; a flat point set gets a row of cells.
+        const double n = static_cast<double>(finite);
+        cell_ = std::sqrt(width * height / n);
+        const double maxCells = 4.0 * n + 16.0;
+        while ((std::floor(width / cell_) + 1.0) * (std::floor(height / cell_) + 1.0) > maxCells)
+            cell_ *= 2.0;
+        nx_ = static_cast<int>(std::floor(width / cell_)) + 1;
+        ny_ = static_cast<int>(std::floor(height / cell_)) + 1;
+
+        const std::size_t cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
+        start_.assign(cells + 1, 0);
+        std::vector<int> cellOf(points.size(), -1);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const cv::Point2d& p = points[i];
+            if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+            const int c = cellX(p.x) + nx_ * cellY(p.y);
+            cellOf[i] = c;
+            ++start_[static_cast<std::size_t>(c) + 1];
+        }
+        for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
+        items_.resize(finite);
+        std::vector<int> fill(start_.begin(), start_.end() - 1);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (cellOf[i] >= 0)
+                items_[static_cast<std::size_t>(fill[static_cast<std::size_t>(cellOf[i])]++)] =
+                    static_cast<int>(i);
+    }
+
+    /// Calls visit(index) for every point in the cells overlapping
+    /// [x0, x1] x [y0, y1] (a superset of the points inside it).
+    template <typename Visit>
+    void query(double x0, double y0, double x1, double y1, Visit&& visit) const {
+        if (nx_ == 0 || !(x0 <= x1) || !(y0 <= y1)) return;
+        const int cx0 = cellX(x0), cx1 = cellX(x1);
+        const int cy0 = cellY(y0), cy1 = cellY(y1);
+        for (int cy = cy0; cy <= cy1; ++cy)
+            for (int cx = cx0; cx <= cx1; ++cx) {
+                const std::size_t c = static_cast<std::size_t>(cx + nx_ * cy);
+                for (int k = start_[c]; k < start_[c + 1]; ++k)
+                    visit(items_[static_cast<std::size_t>(k)]);
+            }
+    }
+
+    double cellSize() const { return cell_; }
+    /// The area the cells cover.
+    cv::Rect2d bounds() const { return {originX_, originY_, nx_ * cell_, ny_ * cell_}; }
+
+private:
+    int clampIndex(double v, int n) const {
+        if (!(v > 0.0)) return 0;  // also NaN
+        if (v >= static_cast<double>(n - 1)) return n - 1;
+        return static_cast<int>(v);
+    }
+    int cellX(double x) const { return clampIndex(std::floor((x - originX_) / cell_), nx_); }
+    int cellY(double y) const { return clampIndex(std::floor((y - originY_) / cell_), ny_); }
+
+    double originX_{0.0}, originY_{0.0}, cell_{1.0};
+    int nx_{0}, ny_{0};
+    std::vector<int> start_;
+    std::vector<int> items_;
+};
+
+/// The best admissible right feature of each left feature so far.
+struct Choice {
+    int right{-1};
+    double error{0.0};
+    /// Keeps the lower error; on equal errors the lower right index.
+    void offer(int candidate, double candidateError) {
+        if (right < 0 || candidateError < error || (candidateError == error && candidate < right)) {
+            right = candidate;
+            error = candidateError;
+        }
+    }
+};
+
+/// HandleRepeatMatches (Figure 3-15): a right feature chosen by several left
+/// features stays with the lowest error (equal errors: the lower left index);
+/// the others are voided. Returns the surviving matches in left order.
+std::vector<FeatureMatch> handleRepeatMatches(const std::vector<Choice>& choices,
+                                              std::size_t rightCount, std::size_t& voided) {
+    std::vector<int> owner(rightCount, -1);
+    for (std::size_t i = 0; i < choices.size(); ++i) {
+        const Choice& c = choices[i];
+        if (c.right < 0) continue;
+        int& o = owner[static_cast<std::size_t>(c.right)];
+        if (o < 0 || c.error < choices[static_cast<std::size_t>(o)].error) o = static_cast<int>(i);
+    }
+    std::vector<FeatureMatch> matches;
+    voided = 0;
+    for (std::size_t i = 0; i < choices.size(); ++i) {
+        const Choice& c = choices[i];
+        if (c.right < 0) continue;
+        if (owner[static_cast<std::size_t>(c.right)] == static_cast<int>(i))
+            matches.push_back({static_cast<int>(i), c.right, c.error});
+        else
+            ++voided;
+    }
+    return matches;
+}
+
+void validateFeatures(const std::vector<Feature>& features, const char* side) {
+    for (std::size_t i = 0; i < features.size(); ++i) {
+        const Feature& f = features[i];
+        if (f.area < 1 || !std::isfinite(f.centroid.x) || !std::isfinite(f.centroid.y)) {
+            std::ostringstream msg;
+            msg << "SIPFeatureMatcher::match: " << side << " feature " << i << " has area "
+                << f.area << " and centroid (" << f.centroid.x << ", " << f.centroid.y
+                << "); a feature needs an area of at least 1 and a finite centroid";
+            throw InvalidArgument(msg.str());
+        }
+    }
+}
+
+void requireConfig(bool ok, const char* field, double value, const char* rule) {
+    if (ok) return;
+    std::ostringstream msg;
+    msg << "SIPFeatureMatcher: " << field << " = " << value << " is invalid: " << rule;
+    throw InvalidArgument(msg.str());
+}
+
+const char* methodName(MatchMethod m) {
+    switch (m) {
+        case MatchMethod::Shape:
+            return "Shape";
+        case MatchMethod::EpipolarBox:
+            return "EpipolarBox";
+        case MatchMethod::EpipolarLine:
+            return "EpipolarLine";
+    }
+    return "?";
+}
+
+/// The matching state shared by the three methods: the inputs, their shape
+/// descriptors and the per-left choices.
+///
+/// Descriptors: the left one is computed once per left feature, when its first
+/// candidate passes the area test (consider() is called left by left). The
+/// right ones are all computed up front when every right feature is compared
+/// with every left one (Shape), and otherwise per candidate: the box and line
+/// leave one or two candidates per feature, and keeping 1,000 descriptors of
+/// 872 bytes costs more than computing the few that are needed.
+class MatchRun {
+public:
+    MatchRun(const MatchConfig& config, const std::vector<Feature>& left,
+             const std::vector<Feature>& right, bool describeAllRight)
+        : config_(config), left_(left), right_(right), choices_(left.size()) {
+        if (describeAllRight) {
+            rightShape_.reserve(right.size());
+            for (const Feature& f : right) rightShape_.push_back(describe(f));
+        }
+    }
+
+    /// Offers right feature j to left feature i when area and shape admit it.
+    void consider(std::size_t i, int j) {
+        const std::size_t uj = static_cast<std::size_t>(j);
+        ++candidates_;
+        if (!areasCompatible(left_[i], right_[uj], config_.shape.maxAreaRatio)) return;
+        if (describedLeft_ != i) {
+            leftShape_ = describe(left_[i]);
+            describedLeft_ = i;
+        }
+        const double error =
+            rightShape_.empty() ? shapeErrorOf(leftShape_, describe(right_[uj]), config_.shape)
+                                : shapeErrorOf(leftShape_, rightShape_[uj], config_.shape);
+        if (!(error <= config_.shape.maxError)) return;
+        choices_[i].offer(j, error);
+    }
+
+    std::vector<FeatureMatch> finish(MatchMethod method) {
+        std::size_t voided = 0;
+        std::vector<FeatureMatch> matches = handleRepeatMatches(choices_, right_.size(), voided);
+        log4cpp::Category& log = logger();
+        if (log.isDebugEnabled()) {
+            std::ostringstream msg;
+            msg << "SIPFeatureMatcher " << methodName(method) << ": " << left_.size() << " left, "
+                << right_.size() << " right, " << candidates_ << " candidate pairs, "
+                << matches.size() << " matches, " << voided << " voided repeats";
+            log.debug(msg.str());
+        }
+        return matches;
+    }
+
+private:
+    const MatchConfig& config_;
+    const std::vector<Feature>& left_;
+    const std::vector<Feature>& right_;
+    ShapeDescriptor leftShape_;
+    std::size_t describedLeft_{std::numeric_limits<std::size_t>::max()};
+    std::vector<ShapeDescriptor> rightShape_;
+    std::vector<Choice> choices_;
+    std::size_t candidates_{0};
+};
+
+/// Liang-Barsky: clips the segment a-b to @p rect; false when nothing is left.
+bool clipSegment(cv::Point2d& a, cv::Point2d& b, const cv::Rect2d& rect) {
+    const cv::Point2d d = b - a;
+    double t0 = 0.0, t1 = 1.0;
+    const double p[4] = {-d.x, d.x, -d.y, d.y};
+    const double q[4] = {a.x - rect.x, rect.x + rect.width - a.x, a.y - rect.y,
+                         rect.y + rect.height - a.y};
+    for (int k = 0; k < 4; ++k) {
+        if (p[k] == 0.0) {
+            if (q[k] < 0.0) return false;
+            continue;
+        }
+        const double t = q[k] / p[k];
+        if (p[k] < 0.0)
+            t0 = std::max(t0, t);
+        else
+            t1 = std::min(t1, t);
+    }
+    if (!(t0 <= t1)) return false;
+    const cv::Point2d start = a;
+    a = start + d * t0;
+    b = start + d * t1;
+    return true;
+}
+
+/// The left-camera depth z of the midpoint triangulation of Figure 3-18, as
+/// StereoCoordinateCalculator::triangulate() computes it, from undistorted
+/// normalised coordinates (already at hand here, so not normalised again).
+/// NaN when the two rays are parallel.
+double midpointDepthMm(const cv::Matx33d& R, const cv::Vec3d& T, const cv::Point2d& xl,
+                       const cv::Point2d& xr) {
+    const cv::Vec3d Xl(xl.x, xl.y, 1.0);
+    const cv::Vec3d Xr(xr.x, xr.y, 1.0);
+    const cv::Vec3d u = R * Xl;
+    const double nXl2 = Xl.dot(Xl);
+    const double nXr2 = Xr.dot(Xr);
+    const double XrU = Xr.dot(u);
+    const double XrT = Xr.dot(T);
+    const double uT = u.dot(T);
+    const double DD = nXl2 * nXr2 - XrU * XrU;
+    if (!(std::abs(DD) > 1e-15 * nXl2 * nXr2)) return std::numeric_limits<double>::quiet_NaN();
+    const double Zl = (XrU * XrT - nXr2 * uT) / DD;
+    const double Zr = (nXl2 * XrT - uT * XrU) / DD;
+    // z of X2 = R^T (Xr Zr - T): the third column of R dotted with Xr Zr - T.
+    const cv::Vec3d v = Xr * Zr - T;
+    const double z2 = R(0, 2) * v[0] + R(1, 2) * v[1] + R(2, 2) * v[2];
+    return 0.5 * (Zl + z2);
+}
+
+std::vector<cv::Point2d> centroids(const std::vector<Feature>& features) {
+    std::vector<cv::Point2d> c;
+    c.reserve(features.size());
+    for (const Feature& f : features) c.push_back(f.centroid);
+    return c;
+}
+
+}  // namespace
+
+double shapeError(const Feature& a, const Feature& b, const ShapeMatchConfig& weights) {
+    return shapeErrorOf(describe(a), describe(b), weights);
+}
+
+cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo) {
+    // X_r = R X_l + T: X_r, T and R X_l are coplanar, X_r . (T x R X_l) = 0,
+    // so x_r^T [T]x R x_l = 0 (E = [T]x R) for normalised x = K^-1 p, and
+    // p_r^T K_r^-T E K_l^-1 p_l = 0.
+    const cv::Matx33d R = rodrigues(stereo.om);
+    const cv::Vec3d T(stereo.translationMm[0], stereo.translationMm[1], stereo.translationMm[2]);
+    const cv::Matx33d essential = skew(T) * R;
+    const cv::Matx33d kLeftInv = cameraMatrix(stereo.left).inv();
+    const cv::Matx33d kRightInv = cameraMatrix(stereo.right).inv();
+    return kRightInv.t() * essential * kLeftInv;
+}
+
+SIPFeatureMatcher::SIPFeatureMatcher(const MatchConfig& match, const StereoSystemConfig& stereo)
+    : match_(match), stereo_(stereo) {
+    const MatchConfig& m = match_;
+    requireConfig(m.boxDxMin < m.boxDxMax, "boxDxMax", m.boxDxMax, "must exceed boxDxMin");
+    requireConfig(m.boxDyMin < m.boxDyMax, "boxDyMax", m.boxDyMax, "must exceed boxDyMin");
+    requireConfig(m.maxEpipolarDistancePx >= 0.0, "maxEpipolarDistancePx",
+                  m.maxEpipolarDistancePx, "must be >= 0");
+    requireConfig(m.minRangeMm > 0.0, "minRangeMm", m.minRangeMm, "must be > 0");
+    requireConfig(m.minRangeMm < m.maxRangeMm, "maxRangeMm", m.maxRangeMm,
+                  "must exceed minRangeMm");
+    requireConfig(m.shape.magnitudeWeight >= 0.0, "shape.magnitudeWeight",
+                  m.shape.magnitudeWeight, "must be >= 0");
+    requireConfig(m.shape.directionWeight >= 0.0, "shape.directionWeight",
+                  m.shape.directionWeight, "must be >= 0");
+    requireConfig(m.shape.maxError >= 0.0, "shape.maxError", m.shape.maxError, "must be >= 0");
+    requireConfig(m.shape.maxAreaRatio >= 1.0, "shape.maxAreaRatio", m.shape.maxAreaRatio,
+                  "must be >= 1");
+    for (const CameraIntrinsics* c : {&stereo_.left, &stereo_.right}) {
+        const char* name = c == &stereo_.left ? "left.fc" : "right.fc";
+        requireConfig(c->fc[0] > 0.0 && c->fc[1] > 0.0, name, std::min(c->fc[0], c->fc[1]),
+                      "focal lengths must be > 0");
+    }
+    fundamental_ = fundamentalMatrix(stereo_);
+}
+
+std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& left,
+                                                   const std::vector<Feature>& right) const {
+    validateFeatures(left, "left");
+    validateFeatures(right, "right");
+    MatchRun run(match_, left, right,
+                 match_.method == MatchMethod::Shape && !left.empty() && !right.empty());
+    if (left.empty() || right.empty()) return run.finish(match_.method);
+
+    switch (match_.method) {
+        case MatchMethod::Shape: {
+            // Figure 3-15, FindBestMatch: all right features, O(n_left * n_right).
+            for (std::size_t i = 0; i < left.size(); ++i)
+                for (std::size_t j = 0; j < right.size(); ++j)
+                    if (left[i].centroid.x > right[j].centroid.x)
+                        run.consider(i, static_cast<int>(j));
+            break;
+        }
+        case MatchMethod::EpipolarBox: {
+            // Figure 3-16: the right centroid lies in the box
+            // (x_l - dxMax, x_l - dxMin) x (y_l - dyMax, y_l - dyMin).
+            const std::vector<cv::Point2d> rightCentroids = centroids(right);
+            const PointGrid grid(rightCentroids);
+            for (std::size_t i = 0; i < left.size(); ++i) {
+                const cv::Point2d& l = left[i].centroid;
+                grid.query(l.x - match_.boxDxMax, l.y - match_.boxDyMax, l.x - match_.boxDxMin,
+                           l.y - match_.boxDyMin, [&](int j) {
+                               const cv::Point2d& r = rightCentroids[static_cast<std::size_t>(j)];
+                               const double dx = l.x - r.x;
+                               const double dy = l.y - r.y;
+                               if (match_.boxDxMin < dx && dx < match_.boxDxMax &&
+                                   match_.boxDyMin < dy && dy < match_.boxDyMax)
+                                   run.consider(i, j);
+                           });
+            }
+            break;
+        }
+        case MatchMethod::EpipolarLine: {
+            // Undistorted normalised coordinates of the right centroids and
+            // their undistorted pixels K_r x_n.
+            std::vector<cv::Point2d> rightNormalized, rightIdeal;
+            rightNormalized.reserve(right.size());
+            rightIdeal.reserve(right.size());
+            for (const Feature& f : right) {
+                rightNormalized.push_back(normalizePixel(stereo_.right, f.centroid));
+                rightIdeal.push_back(normalizedToPixel(stereo_.right, rightNormalized.back()));
+            }
+            const PointGrid grid(rightIdeal);
+            const cv::Matx33d R = rodrigues(stereo_.om);
+            const cv::Vec3d T(stereo_.translationMm[0], stereo_.translationMm[1],
+                              stereo_.translationMm[2]);
+            const cv::Matx33d kLeft = cameraMatrix(stereo_.left);
+            const cv::Matx33d kRight = cameraMatrix(stereo_.right);
+            const double maxDistance = match_.maxEpipolarDistancePx;
+            // The query covers the segment widened beyond the distance limit, so
+            // that a midpoint-triangulated depth just inside the range is not lost.
+            const double margin = 2.0 * maxDistance + 2.0;
+            std::vector<std::size_t> seen(right.size(), 0);
+
+            for (std::size_t i = 0; i < left.size(); ++i) {
+                const cv::Point2d xl = normalizePixel(stereo_.left, left[i].centroid);
+                const cv::Vec3d pl = kLeft * cv::Vec3d(xl.x, xl.y, 1.0);
+                cv::Vec3d line = fundamental_ * pl;
+                const double norm = std::hypot(line[0], line[1]);
+                if (!(norm > 0.0)) continue;  // the left point is the epipole: no line
+                line /= norm;
+
+                // The ray X = Z d (left depth Z) seen from the right camera:
+                // X_r(Z) = Z R d + T, in front of it while Z (Rd)_z + T_z > 0.
+                const cv::Vec3d Rd = R * cv::Vec3d(xl.x, xl.y, 1.0);
+                double zNear = match_.minRangeMm;
+                double zFar = match_.maxRangeMm;
+                constexpr double kMinRightDepthMm = 1e-3;
+                if (Rd[2] > 0.0)
+                    zNear = std::max(zNear, (kMinRightDepthMm - T[2]) / Rd[2]);
+                else if (Rd[2] < 0.0)
+                    zFar = std::min(zFar, (T[2] - kMinRightDepthMm) / -Rd[2]);
+                else if (!(T[2] > kMinRightDepthMm))
+                    continue;
+                if (!(zNear < zFar)) continue;
+                const auto project = [&](double z) {
+                    const cv::Vec3d h = kRight * (z * Rd + T);
+                    return cv::Point2d(h[0] / h[2], h[1] / h[2]);
+                };
+                // The depth range's segment of the epipolar line, clipped to the
+                // grid (widened by the margin) and walked in pieces about one
+                // grid cell long.
+                cv::Point2d a = project(zNear);
+                cv::Point2d b = project(zFar);
+                if (!std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) ||
+                    !std::isfinite(b.y))
+                    continue;
+                cv::Rect2d area = grid.bounds();
+                area.x -= margin;
+                area.y -= margin;
+                area.width += 2.0 * margin;
+                area.height += 2.0 * margin;
+                if (!clipSegment(a, b, area)) continue;
+                const double length = std::hypot(b.x - a.x, b.y - a.y);
+                const int pieces =
+                    std::max(1, static_cast<int>(std::ceil(length / grid.cellSize())));
+                const std::size_t stamp = i + 1;
+                for (int k = 0; k < pieces; ++k) {
+                    const double t0 = static_cast<double>(k) / pieces;
+                    const double t1 = static_cast<double>(k + 1) / pieces;
+                    const cv::Point2d p0 = a + (b - a) * t0;
+                    const cv::Point2d p1 = a + (b - a) * t1;
+                    grid.query(
+                        std::min(p0.x, p1.x) - margin, std::min(p0.y, p1.y) - margin,
+                        std::max(p0.x, p1.x) + margin, std::max(p0.y, p1.y) + margin, [&](int j) {
+                            const std::size_t uj = static_cast<std::size_t>(j);
+                            if (seen[uj] == stamp) return;
+                            seen[uj] = stamp;
+                            const cv::Point2d& q = rightIdeal[uj];
+                            const double distance = std::abs(line[0] * q.x + line[1] * q.y + line[2]);
+                            if (!(distance <= maxDistance)) return;
+                            const double depth = midpointDepthMm(R, T, xl, rightNormalized[uj]);
+                            if (depth >= match_.minRangeMm && depth <= match_.maxRangeMm)
+                                run.consider(i, j);
+                        });
+                }
+            }
+            break;
+        }
+    }
+    return run.finish(match_.method);
+}
+
+}  // namespace avatar

@@ -1,0 +1,728 @@
+#include "ScorpionCalibration.h"
+
+#include <avatar/analyze/CameraModel.h>
+#include <avatar/analyze/SIPFeatureMatcher.h>
+#include <avatar/analyze/StereoCoordinateCalculator.h>
+#include <avatar/common/Error.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace avatar {
+
+// Printing and comparing matches (by indices), for exact match-list
+// assertions; static, so that argument-dependent lookup finds them in avatar.
+static bool operator==(const FeatureMatch& a, const FeatureMatch& b) {
+    return a.left == b.left && a.right == b.right;
+}
+static void PrintTo(const FeatureMatch& m, std::ostream* os) {
+    *os << "{" << m.left << "->" << m.right << ", e=" << m.shapeError << "}";
+}
+
+namespace {
+
+using Pairs = std::vector<FeatureMatch>;
+
+// ---------------------------------------------------------------------------
+// Crafted features: the geometry of Feature.h computed from a pixel set.
+
+Feature featureFromPixels(const std::vector<cv::Point>& pixels) {
+    Feature f;
+    f.area = static_cast<int>(pixels.size());
+    int xl = pixels[0].x, xr = xl, yt = pixels[0].y, yb = yt;
+    double sx = 0.0, sy = 0.0;
+    for (const cv::Point& p : pixels) {
+        xl = std::min(xl, p.x);
+        xr = std::max(xr, p.x);
+        yt = std::min(yt, p.y);
+        yb = std::max(yb, p.y);
+        sx += p.x;
+        sy += p.y;
+    }
+    f.centroid = {sx / f.area, sy / f.area};
+    f.weightedCentroid = f.centroid;
+    // Table 3-1: extremes of the top row, rightmost column, bottom row, leftmost column.
+    int topMin = xr, topMax = xl, botMin = xr, botMax = xl;
+    int rightMin = yb, rightMax = yt, leftMin = yb, leftMax = yt;
+    for (const cv::Point& p : pixels) {
+        if (p.y == yt) topMin = std::min(topMin, p.x), topMax = std::max(topMax, p.x);
+        if (p.y == yb) botMin = std::min(botMin, p.x), botMax = std::max(botMax, p.x);
+        if (p.x == xr) rightMin = std::min(rightMin, p.y), rightMax = std::max(rightMax, p.y);
+        if (p.x == xl) leftMin = std::min(leftMin, p.y), leftMax = std::max(leftMax, p.y);
+    }
+    f.boundary[kTopLeft] = {topMin, yt};
+    f.boundary[kTopRight] = {topMax, yt};
+    f.boundary[kRightTop] = {xr, rightMin};
+    f.boundary[kRightBottom] = {xr, rightMax};
+    f.boundary[kBottomRight] = {botMax, yb};
+    f.boundary[kBottomLeft] = {botMin, yb};
+    f.boundary[kLeftBottom] = {xl, leftMax};
+    f.boundary[kLeftTop] = {xl, leftMin};
+    f.box = cv::Rect(xl, yt, xr - xl + 1, yb - yt + 1);
+    f.aspectRatio = static_cast<double>(f.box.width) / f.box.height;
+    f.areaRatio = static_cast<double>(f.area) / f.box.area();
+    return f;
+}
+
+/// A filled w x h rectangle whose upper-left pixel is (x, y).
+Feature rect(int x, int y, int w, int h) {
+    std::vector<cv::Point> px;
+    for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c) px.emplace_back(x + c, y + r);
+    return featureFromPixels(px);
+}
+
+/// A filled ellipse of semi-axes (a, b) pixels centred on pixel (cx, cy).
+Feature ellipse(int cx, int cy, int a, int b) {
+    std::vector<cv::Point> px;
+    for (int r = -b; r <= b; ++r)
+        for (int c = -a; c <= a; ++c)
+            if (static_cast<double>(c * c) / (a * a) + static_cast<double>(r * r) / (b * b) <= 1.0)
+                px.emplace_back(cx + c, cy + r);
+    return featureFromPixels(px);
+}
+
+/// A filled right triangle with legs of n pixels, right angle at the lower left.
+Feature triangle(int x, int y, int n) {
+    std::vector<cv::Point> px;
+    for (int r = 0; r < n; ++r)
+        for (int c = 0; c <= r; ++c) px.emplace_back(x + c, y + r);
+    return featureFromPixels(px);
+}
+
+/// The feature moved by whole pixels.
+Feature shifted(Feature f, int dx, int dy) {
+    const cv::Point d(dx, dy);
+    f.centroid += cv::Point2d(dx, dy);
+    f.weightedCentroid = f.centroid;
+    for (cv::Point& p : f.boundary) p += d;
+    f.box.x += dx;
+    f.box.y += dy;
+    return f;
+}
+
+/// A w x h rectangle about @p centroid whose centroid is set to exactly that
+/// (sub-pixel) point, e.g. a projection.
+Feature rectAt(const cv::Point2d& centroid, int w, int h) {
+    Feature f = rect(static_cast<int>(std::lround(centroid.x)) - w / 2,
+                     static_cast<int>(std::lround(centroid.y)) - h / 2, w, h);
+    f.centroid = f.weightedCentroid = centroid;
+    return f;
+}
+
+/// A rig of parallel identical cameras, f = 1000 px, 100 mm baseline: a target
+/// at depth Z mm appears 100000 / Z px further left in the right image.
+StereoSystemConfig parallelRig() {
+    StereoSystemConfig s;
+    s.left.fc = s.right.fc = {1000.0, 1000.0};
+    s.left.cc = s.right.cc = {640.0, 480.0};
+    s.om = {0.0, 0.0, 0.0};
+    s.translationMm = {-100.0, 0.0, 0.0};
+    return s;
+}
+
+MatchConfig config(MatchMethod method) {
+    MatchConfig m;
+    m.method = method;
+    return m;
+}
+
+Pairs matchWith(const MatchConfig& m, const StereoSystemConfig& s, const std::vector<Feature>& l,
+                const std::vector<Feature>& r) {
+    return SIPFeatureMatcher(m, s).match(l, r);
+}
+
+// ---------------------------------------------------------------------------
+// shapeError
+
+const ShapeMatchConfig kUnitWeights{};  // magnitude 1, direction 1
+
+TEST(ShapeError, IsZeroForTranslatedCopiesAndSymmetric) {
+    const Feature a = ellipse(300, 200, 12, 7);
+    EXPECT_DOUBLE_EQ(shapeError(a, a, kUnitWeights), 0.0);
+    EXPECT_DOUBLE_EQ(shapeError(a, shifted(a, -93, 4), kUnitWeights), 0.0);
+    const Feature b = rect(0, 0, 30, 11);
+    EXPECT_GT(shapeError(a, b, kUnitWeights), 0.0);
+    EXPECT_DOUBLE_EQ(shapeError(a, b, kUnitWeights), shapeError(b, a, kUnitWeights));
+}
+
+TEST(ShapeError, OnePixelAgainstAOneRowFeatureByHand) {
+    // A one-pixel feature: all nine points coincide, M = 0, S = 0.
+    const Feature dot = rect(10, 10, 1, 1);
+    // A 2 x 1 feature: four boundary points at (0,0), four at (1,0), centroid
+    // (0.5, 0). Of the 36 pairs 12 coincide, the other 24 have unit S.
+    const Feature bar = rect(0, 0, 2, 1);
+    // magnitude: sum|M_a - M_b| / (0.5 (0 + sum M_b)) = 2;  direction: 24 / 36.
+    EXPECT_NEAR(shapeError(dot, bar, {1.0, 0.0, 1e9, 4.0}), 2.0, 1e-12);
+    EXPECT_NEAR(shapeError(dot, bar, {0.0, 1.0, 1e9, 4.0}), 24.0 / 36.0, 1e-12);
+    EXPECT_NEAR(shapeError(dot, bar, {2.0, 3.0, 1e9, 4.0}), 4.0 + 2.0, 1e-12);
+    // Two point-like features: no NaN, no difference.
+    const double e = shapeError(dot, rect(400, 3, 1, 1), kUnitWeights);
+    EXPECT_FALSE(std::isnan(e));
+    EXPECT_EQ(e, 0.0);
+}
+
+TEST(ShapeError, InvariantToAScaleCommonToBothFeatures) {
+    auto scaled = [](const Feature& f, int k) {
+        Feature g = f;
+        g.centroid *= k;
+        for (cv::Point& p : g.boundary) p *= k;
+        return g;
+    };
+    const Feature a = ellipse(100, 100, 9, 5);
+    const Feature b = triangle(20, 30, 12);
+    const double e = shapeError(a, b, kUnitWeights);
+    EXPECT_NEAR(shapeError(scaled(a, 3), scaled(b, 3), kUnitWeights), e, 1e-12);
+    // A size difference alone still counts: a 2x copy has mean |dM| = mean M_a
+    // and scale 1.5 mean M_a, a magnitude term of 2/3 and no direction term.
+    EXPECT_NEAR(shapeError(a, scaled(a, 2), kUnitWeights), 2.0 / 3.0, 1e-12);
+}
+
+TEST(ShapeError, BoundedByTheWeights) {
+    const std::vector<Feature> shapes = {rect(0, 0, 1, 1),  rect(0, 0, 5, 1),      rect(0, 0, 1, 9),
+                                         rect(0, 0, 8, 8),  ellipse(50, 50, 20, 3), triangle(0, 0, 15),
+                                         ellipse(9, 9, 4, 4)};
+    const ShapeMatchConfig w{0.7, 1.9, 1e9, 4.0};
+    for (const Feature& a : shapes)
+        for (const Feature& b : shapes) {
+            const double e = shapeError(a, b, w);
+            EXPECT_TRUE(std::isfinite(e));
+            EXPECT_GE(e, 0.0);
+            EXPECT_LE(e, 2.0 * (0.7 + 1.9) + 1e-12);
+        }
+}
+
+// ---------------------------------------------------------------------------
+// Behaviour every method shares, on the parallel rig where all three agree:
+// the scene's targets are 1000 mm away (100 px disparity, same rows).
+
+class EveryMethod : public ::testing::TestWithParam<MatchMethod> {
+protected:
+    MatchConfig cfg() const { return config(GetParam()); }
+};
+
+TEST_P(EveryMethod, TwoTargetScene) {
+    const Feature box = rect(580, 390, 40, 20);
+    const Feature disc = ellipse(300, 500, 15, 15);
+    const std::vector<Feature> left = {box, disc};
+    const std::vector<Feature> right = {shifted(disc, -100, 0), shifted(box, -100, 0)};
+    const Pairs m = matchWith(cfg(), parallelRig(), left, right);
+    EXPECT_EQ(m, (Pairs{{0, 1}, {1, 0}}));
+    for (const FeatureMatch& x : m) EXPECT_EQ(x.shapeError, 0.0);
+}
+
+TEST_P(EveryMethod, NothingToMatchInEmptyLists) {
+    const std::vector<Feature> some = {rect(500, 400, 10, 10)};
+    const std::vector<Feature> none;
+    EXPECT_TRUE(matchWith(cfg(), parallelRig(), none, none).empty());
+    EXPECT_TRUE(matchWith(cfg(), parallelRig(), some, none).empty());
+    EXPECT_TRUE(matchWith(cfg(), parallelRig(), none, some).empty());
+}
+
+TEST_P(EveryMethod, AreaRatioLimit) {
+    // 20 x 20 = 400 px against 40 x 40 = 1600 px (ratio 4) and 41 x 40 = 1640 px (4.1).
+    const std::vector<Feature> left = {rect(600, 300, 20, 20)};
+    MatchConfig m = cfg();
+    m.shape.maxAreaRatio = 4.0;
+    EXPECT_EQ(matchWith(m, parallelRig(), left, {rect(490, 290, 40, 40)}), (Pairs{{0, 0}}));
+    EXPECT_TRUE(matchWith(m, parallelRig(), left, {rect(490, 290, 41, 40)}).empty());
+    // Either way round.
+    EXPECT_TRUE(matchWith(m, parallelRig(), {rect(590, 290, 41, 40)}, {rect(500, 300, 20, 20)})
+                    .empty());
+}
+
+TEST_P(EveryMethod, MaxShapeErrorLimit) {
+    const std::vector<Feature> left = {rect(600, 300, 20, 20)};
+    const std::vector<Feature> right = {ellipse(510, 310, 10, 10)};
+    const double e = shapeError(left[0], right[0], kUnitWeights);
+    MatchConfig m = cfg();
+    m.shape.maxError = e;
+    ASSERT_EQ(matchWith(m, parallelRig(), left, right).size(), 1u);
+    EXPECT_DOUBLE_EQ(matchWith(m, parallelRig(), left, right)[0].shapeError, e);
+    m.shape.maxError = e * 0.999;
+    EXPECT_TRUE(matchWith(m, parallelRig(), left, right).empty());
+}
+
+TEST_P(EveryMethod, TwoLeftFeaturesClaimingOneRightFeature) {
+    // Both left rectangles lie in each other's disparity range of the single
+    // right one; the exact copy (error 0) keeps it, the other is voided.
+    const Feature target = rect(500, 400, 40, 20);
+    const std::vector<Feature> left = {rect(609, 400, 42, 20), shifted(target, 100, 0)};
+    const std::vector<Feature> right = {target};
+    MatchConfig m = cfg();
+    m.maxEpipolarDistancePx = 3.0;
+    const Pairs result = matchWith(m, parallelRig(), left, right);
+    EXPECT_GT(shapeError(left[0], target, m.shape), 0.0);
+    EXPECT_EQ(result, (Pairs{{1, 0}}));
+    // Listed the other way round, the same feature wins.
+    EXPECT_EQ(matchWith(m, parallelRig(), {left[1], left[0]}, right), (Pairs{{0, 0}}));
+}
+
+TEST_P(EveryMethod, OnePixelFeaturesMatchWithoutNaN) {
+    const std::vector<Feature> left = {rect(700, 480, 1, 1), rect(300, 200, 1, 3)};
+    const std::vector<Feature> right = {rect(200, 200, 1, 3), rect(600, 480, 1, 1)};
+    const Pairs m = matchWith(cfg(), parallelRig(), left, right);
+    ASSERT_EQ(m, (Pairs{{0, 1}, {1, 0}}));
+    for (const FeatureMatch& x : m) EXPECT_EQ(x.shapeError, 0.0);
+}
+
+TEST_P(EveryMethod, RejectsFeaturesWithoutArea) {
+    Feature empty = rect(500, 500, 3, 3);
+    empty.area = 0;
+    const std::vector<Feature> good = {rect(500, 500, 3, 3)};
+    EXPECT_THROW(matchWith(cfg(), parallelRig(), {empty}, good), InvalidArgument);
+    Feature nan = good[0];
+    nan.centroid.x = std::nan("");
+    EXPECT_THROW(matchWith(cfg(), parallelRig(), good, {nan}), InvalidArgument);
+}
+
+INSTANTIATE_TEST_SUITE_P(Matcher, EveryMethod,
+                         ::testing::Values(MatchMethod::Shape, MatchMethod::EpipolarBox,
+                                           MatchMethod::EpipolarLine),
+                         [](const ::testing::TestParamInfo<MatchMethod>& param) {
+                             switch (param.param) {
+                                 case MatchMethod::Shape:
+                                     return std::string("Shape");
+                                 case MatchMethod::EpipolarBox:
+                                     return std::string("EpipolarBox");
+                                 case MatchMethod::EpipolarLine:
+                                     return std::string("EpipolarLine");
+                             }
+                             return std::string("Unknown");
+                         });
+
+// ---------------------------------------------------------------------------
+// Where the methods differ.
+
+TEST(ShapeMethod, CentroidXConstraint) {
+    const MatchConfig m = config(MatchMethod::Shape);
+    const Feature l = rect(300, 300, 20, 10);
+    // The identical copy to the right (x_right > x_left) or straight across
+    // (x_right == x_left) is behind the cameras / at infinity: not a match.
+    EXPECT_TRUE(matchWith(m, parallelRig(), {l}, {shifted(l, 50, 0)}).empty());
+    EXPECT_TRUE(matchWith(m, parallelRig(), {l}, {l}).empty());
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, {shifted(l, -1, 0)}), (Pairs{{0, 0}}));
+    // A perfect copy on the wrong side loses to a worse shape on the right side.
+    const std::vector<Feature> right = {shifted(l, 50, 0), rect(200, 300, 22, 10)};
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, right), (Pairs{{0, 1}}));
+}
+
+TEST(ShapeMethod, IgnoresRowsAndTakesTheBestShape) {
+    // The shape method has no row constraint: a copy 300 rows away beats a
+    // similar shape on the same row.
+    const Feature l = triangle(600, 300, 20);
+    const std::vector<Feature> right = {ellipse(510, 310, 10, 10), shifted(l, -100, 300)};
+    EXPECT_EQ(matchWith(config(MatchMethod::Shape), parallelRig(), {l}, right), (Pairs{{0, 1}}));
+    EXPECT_EQ(matchWith(config(MatchMethod::EpipolarBox), parallelRig(), {l}, right),
+              (Pairs{{0, 0}}));
+}
+
+TEST(EpipolarBox, TwoCandidatesResolvedByShape) {
+    const Feature l = rect(580, 390, 40, 20);
+    // Both centroids fall in the box; the rectangle has the same shape.
+    const std::vector<Feature> right = {ellipse(520, 402, 20, 10), shifted(l, -120, -3)};
+    const Pairs m = matchWith(config(MatchMethod::EpipolarBox), parallelRig(), {l}, right);
+    EXPECT_EQ(m, (Pairs{{0, 1}}));
+    EXPECT_EQ(m[0].shapeError, 0.0);
+    // A single candidate is a match whatever its shape (within the limits).
+    EXPECT_EQ(matchWith(config(MatchMethod::EpipolarBox), parallelRig(), {l}, {right[0]}),
+              (Pairs{{0, 0}}));
+}
+
+TEST(EpipolarBox, BoundsAreStrict) {
+    MatchConfig m = config(MatchMethod::EpipolarBox);
+    m.boxDxMin = 50.0;
+    m.boxDxMax = 150.0;
+    m.boxDyMin = -5.0;
+    m.boxDyMax = 5.0;
+    const Feature l = rect(600, 400, 10, 10);
+    auto matches = [&](int dx, int dy) {
+        return !matchWith(m, parallelRig(), {l}, {shifted(l, -dx, -dy)}).empty();
+    };
+    EXPECT_TRUE(matches(51, 0));
+    EXPECT_FALSE(matches(50, 0));
+    EXPECT_TRUE(matches(149, 4));
+    EXPECT_FALSE(matches(150, 0));
+    EXPECT_FALSE(matches(100, 5));
+    EXPECT_FALSE(matches(100, -5));
+    EXPECT_TRUE(matches(100, -4));
+}
+
+TEST(Methods, IdenticalTargetsSideBySide) {
+    // Two identical rectangles 250 px apart at 1000 mm (disparity 100 px). The
+    // right list has them in the other order: B' = 0, A' = 1.
+    const Feature a = rect(680, 390, 40, 20);
+    const Feature b = rect(430, 390, 40, 20);
+    const std::vector<Feature> left = {a, b};
+    const std::vector<Feature> right = {shifted(b, -100, 0), shifted(a, -100, 0)};
+    const Pairs truth = {{0, 1}, {1, 0}};
+
+    // Shape alone cannot tell them apart: A sees B' and A' with error 0 and
+    // takes the lower index B'; B can only take B' (A' is right of it); the
+    // tie of the repeat goes to A, and B is voided. One wrong match.
+    EXPECT_EQ(matchWith(config(MatchMethod::Shape), parallelRig(), left, right), (Pairs{{0, 0}}));
+
+    // A box that holds the realistic disparities (50..150 px) pairs them right.
+    MatchConfig box = config(MatchMethod::EpipolarBox);
+    box.boxDxMin = 50.0;
+    box.boxDxMax = 150.0;
+    EXPECT_EQ(matchWith(box, parallelRig(), left, right), truth);
+    // The default box (0..400 px) holds both for A: the same failure as shape.
+    EXPECT_EQ(matchWith(config(MatchMethod::EpipolarBox), parallelRig(), left, right),
+              (Pairs{{0, 0}}));
+
+    // The epipolar line with a depth range of 600..2000 mm (50..167 px).
+    MatchConfig line = config(MatchMethod::EpipolarLine);
+    line.minRangeMm = 600.0;
+    line.maxRangeMm = 2000.0;
+    EXPECT_EQ(matchWith(line, parallelRig(), left, right), truth);
+}
+
+TEST(EpipolarLine, DepthRangeExcludesCandidatesOnTheLine) {
+    MatchConfig m = config(MatchMethod::EpipolarLine);
+    m.minRangeMm = 500.0;
+    m.maxRangeMm = 2000.0;
+    const Feature l = rect(600, 400, 20, 20);
+    // On the same row: a perfect copy at 400 mm (250 px) and a circle at 1000 mm.
+    const std::vector<Feature> right = {shifted(l, -250, 0), ellipse(510, 410, 10, 10)};
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, right), (Pairs{{0, 1}}));
+    m.minRangeMm = 300.0;
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, right), (Pairs{{0, 0}}));
+    // Just beyond the near limit (205 px: 488 mm < 500 mm) and just inside it.
+    m.minRangeMm = 500.0;
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, {shifted(l, -205, 0), right[1]}), (Pairs{{0, 1}}));
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, {shifted(l, -199, 0), right[1]}), (Pairs{{0, 0}}));
+    // Off the line by more than maxEpipolarDistancePx: not a candidate.
+    m.maxEpipolarDistancePx = 3.5;
+    EXPECT_TRUE(matchWith(m, parallelRig(), {l}, {shifted(l, -100, 4)}).empty());
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, {shifted(l, -100, 3)}), (Pairs{{0, 0}}));
+}
+
+// ---------------------------------------------------------------------------
+// A rotated (verging and rolled) rig with lens distortion and skew.
+
+StereoSystemConfig rotatedRig() {
+    StereoSystemConfig s;
+    s.left.fc = {1000.0, 1004.0};
+    s.left.cc = {640.0, 480.0};
+    s.left.alphaC = 0.004;
+    s.left.kc = {-0.12, 0.05, 0.001, -0.0008, 0.0};
+    s.right.fc = {990.0, 995.0};
+    s.right.cc = {652.0, 470.0};
+    s.right.alphaC = -0.003;
+    s.right.kc = {-0.1, 0.03, -0.0005, 0.001, 0.0};
+    s.om = {0.03, -0.18, 0.12};  // toe-in about y, 7 degrees of roll
+    s.translationMm = {-150.0, 12.0, 25.0};
+    return s;
+}
+
+struct Scene {
+    std::vector<Feature> left, right;
+    Pairs truth;
+};
+
+/// Targets at the given left-camera points, imaged by both cameras as identical
+/// 16 x 12 rectangles at the exact projections (shape cannot tell them apart);
+/// the right list is reversed.
+Scene sceneOf(const StereoSystemConfig& s, const std::vector<cv::Point3d>& pointsLeftMm) {
+    Scene scene;
+    const RigidTransform rTl = rightTLeft(s);
+    const int n = static_cast<int>(pointsLeftMm.size());
+    scene.right.resize(pointsLeftMm.size());
+    for (int i = 0; i < n; ++i) {
+        const cv::Point3d& X = pointsLeftMm[static_cast<std::size_t>(i)];
+        const auto pl = projectPoint(s.left, X);
+        const auto pr = projectPoint(s.right, transformPoint(rTl, X));
+        EXPECT_TRUE(pl && pr);
+        scene.left.push_back(rectAt(*pl, 16, 12));
+        scene.right[static_cast<std::size_t>(n - 1 - i)] = rectAt(*pr, 16, 12);
+        scene.truth.push_back({i, n - 1 - i});
+    }
+    return scene;
+}
+
+TEST(EpipolarLine, RotatedRigWhereTheBoxFails) {
+    const StereoSystemConfig s = rotatedRig();
+    std::vector<cv::Point3d> points;
+    const double depths[] = {800.0, 1100.0, 1500.0, 2100.0};
+    int k = 0;
+    for (double y : {-0.25, 0.0, 0.25})
+        for (double x : {-0.35, -0.1, 0.15, 0.4}) {
+            const double z = depths[k++ % 4];
+            points.emplace_back(x * z, y * z, z);
+        }
+    const Scene scene = sceneOf(s, points);
+
+    MatchConfig line = config(MatchMethod::EpipolarLine);
+    line.minRangeMm = 600.0;
+    line.maxRangeMm = 2500.0;
+    line.maxEpipolarDistancePx = 1.0;
+    EXPECT_EQ(matchWith(line, s, scene.left, scene.right), scene.truth);
+
+    // The same scene through the default box: the roll moves targets by tens
+    // of rows and the toe-in changes disparities, so pairs are lost or wrong.
+    const Pairs box = matchWith(config(MatchMethod::EpipolarBox), s, scene.left, scene.right);
+    int correct = 0;
+    for (const FeatureMatch& m : box)
+        correct += std::count(scene.truth.begin(), scene.truth.end(), m) > 0 ? 1 : 0;
+    EXPECT_LT(correct, static_cast<int>(scene.truth.size()) / 2);
+}
+
+TEST(FundamentalMatrix, ProjectedPointsLieOnTheirEpipolarLines) {
+    StereoSystemConfig s = rotatedRig();
+    s.left.kc = s.right.kc = {0, 0, 0, 0, 0};  // pixels are undistorted pixels
+    const cv::Matx33d F = fundamentalMatrix(s);
+    const RigidTransform rTl = rightTLeft(s);
+    // The thesis's printed F = K_r^T E K_l^-1, for comparison.
+    const cv::Matx33d R = rodrigues(s.om);
+    const cv::Vec3d T(s.translationMm[0], s.translationMm[1], s.translationMm[2]);
+    const cv::Matx33d Tx(0, -T[2], T[1], T[2], 0, -T[0], -T[1], T[0], 0);
+    auto K = [](const CameraIntrinsics& c) {
+        return cv::Matx33d(c.fc[0], c.fc[0] * c.alphaC, c.cc[0], 0, c.fc[1], c.cc[1], 0, 0, 1);
+    };
+    const cv::Matx33d typo = K(s.right).t() * Tx * R * K(s.left).inv();
+
+    double worstTypo = 0.0;
+    for (double z : {300.0, 1000.0, 4000.0})
+        for (double y : {-0.3, 0.1, 0.3})
+            for (double x : {-0.4, 0.0, 0.35}) {
+                const cv::Point3d X(x * z, y * z, z);
+                const auto pl = projectPoint(s.left, X);
+                const auto pr = projectPoint(s.right, transformPoint(rTl, X));
+                ASSERT_TRUE(pl && pr);
+                const cv::Vec3d l(pl->x, pl->y, 1.0), r(pr->x, pr->y, 1.0);
+                const cv::Vec3d line = F * l;
+                // p_r^T F p_l as the pixel distance of p_r from the line F p_l.
+                EXPECT_LT(std::abs(r.dot(line)) / std::hypot(line[0], line[1]), 1e-9);
+                const cv::Vec3d lineT = typo * l;
+                worstTypo = std::max(worstTypo, std::abs(r.dot(lineT)) / std::hypot(lineT[0], lineT[1]));
+            }
+    EXPECT_GT(worstTypo, 10.0);  // the printed formula is not a fundamental matrix
+
+    // The left epipole (the right camera's centre seen by the left camera) is F's null vector.
+    const cv::Vec3d centreRightInLeft = -(R.t() * T);
+    const cv::Vec3d el = K(s.left) * centreRightInLeft;
+    const cv::Vec3d Fe = F * el;
+    EXPECT_LT(cv::norm(Fe), 1e-12 * cv::norm(F) * cv::norm(el));
+}
+
+TEST(FundamentalMatrix, HoldsForUndistortedPixelsOfADistortedRig) {
+    const StereoSystemConfig s = rotatedRig();
+    const cv::Matx33d F = fundamentalMatrix(s);
+    const RigidTransform rTl = rightTLeft(s);
+    auto undistorted = [](const CameraIntrinsics& c, const cv::Point2d& px) {
+        const cv::Point2d u = normalizedToPixel(c, normalizePixel(c, px));
+        return cv::Vec3d(u.x, u.y, 1.0);
+    };
+    for (double z : {500.0, 2000.0})
+        for (double y : {-0.2, 0.2})
+            for (double x : {-0.3, 0.3}) {
+                const cv::Point3d X(x * z, y * z, z);
+                const cv::Vec3d l = undistorted(s.left, *projectPoint(s.left, X));
+                const cv::Vec3d r =
+                    undistorted(s.right, *projectPoint(s.right, transformPoint(rTl, X)));
+                const cv::Vec3d line = F * l;
+                EXPECT_LT(std::abs(r.dot(line)) / std::hypot(line[0], line[1]), 1e-6);
+            }
+}
+
+// ---------------------------------------------------------------------------
+// The candidate grid never loses a candidate: crowded random scenes give the
+// same matches as a brute-force scan of every pair with the documented rules.
+
+struct Rng {
+    unsigned state;
+    double uniform(double lo, double hi) {
+        state = state * 1664525u + 1013904223u;
+        return lo + (hi - lo) * ((state >> 8) / 16777216.0);
+    }
+};
+
+Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::vector<Feature>& l,
+                 const std::vector<Feature>& r) {
+    const cv::Matx33d F = fundamentalMatrix(s);
+    const StereoCoordinateCalculator tri(s);
+    auto ideal = [](const CameraIntrinsics& c, const cv::Point2d& px) {
+        const cv::Point2d u = normalizedToPixel(c, normalizePixel(c, px));
+        return cv::Vec3d(u.x, u.y, 1.0);
+    };
+    std::vector<int> best(l.size(), -1);
+    std::vector<double> bestError(l.size(), 0.0);
+    for (std::size_t i = 0; i < l.size(); ++i)
+        for (std::size_t j = 0; j < r.size(); ++j) {
+            const double dx = l[i].centroid.x - r[j].centroid.x;
+            const double dy = l[i].centroid.y - r[j].centroid.y;
+            bool geometric = false;
+            if (m.method == MatchMethod::EpipolarBox) {
+                geometric = m.boxDxMin < dx && dx < m.boxDxMax && m.boxDyMin < dy && dy < m.boxDyMax;
+            } else {
+                const cv::Vec3d line = F * ideal(s.left, l[i].centroid);
+                const double d = std::abs(line.dot(ideal(s.right, r[j].centroid))) /
+                                 std::hypot(line[0], line[1]);
+                const auto p = tri.triangulate(l[i].centroid, r[j].centroid);
+                geometric = d <= m.maxEpipolarDistancePx && p && p->leftMm.z >= m.minRangeMm &&
+                            p->leftMm.z <= m.maxRangeMm;
+            }
+            const double lo = std::min(l[i].area, r[j].area), hi = std::max(l[i].area, r[j].area);
+            if (!geometric || hi > m.shape.maxAreaRatio * lo) continue;
+            const double e = shapeError(l[i], r[j], m.shape);
+            if (e > m.shape.maxError) continue;
+            if (best[i] < 0 || e < bestError[i] || (e == bestError[i] && static_cast<int>(j) < best[i])) {
+                best[i] = static_cast<int>(j);
+                bestError[i] = e;
+            }
+        }
+    Pairs out;
+    for (std::size_t i = 0; i < l.size(); ++i) {
+        if (best[i] < 0) continue;
+        bool keeps = true;
+        for (std::size_t k = 0; k < l.size(); ++k)
+            if (k != i && best[k] == best[i] &&
+                (bestError[k] < bestError[i] || (bestError[k] == bestError[i] && k < i)))
+                keeps = false;
+        if (keeps) out.push_back({static_cast<int>(i), best[i], bestError[i]});
+    }
+    return out;
+}
+
+std::vector<Feature> randomFeatures(Rng& rng, int n) {
+    std::vector<Feature> f;
+    for (int i = 0; i < n; ++i) {
+        const int x = static_cast<int>(rng.uniform(0.0, 1260.0));
+        const int y = static_cast<int>(rng.uniform(0.0, 940.0));
+        const int a = static_cast<int>(rng.uniform(2.0, 10.0));
+        const int b = static_cast<int>(rng.uniform(2.0, 10.0));
+        f.push_back(rng.uniform(0.0, 1.0) < 0.5 ? rect(x, y, a, b) : ellipse(x + 10, y + 10, a, b));
+    }
+    return f;
+}
+
+TEST(CandidateGrid, CrowdedRandomScenesMatchBruteForce) {
+    Rng rng{7u};
+    for (int trial = 0; trial < 6; ++trial) {
+        const std::vector<Feature> left = randomFeatures(rng, 300);
+        const std::vector<Feature> right = randomFeatures(rng, 280);
+        MatchConfig box = config(MatchMethod::EpipolarBox);
+        box.boxDxMin = rng.uniform(-50.0, 20.0);
+        box.boxDxMax = box.boxDxMin + rng.uniform(5.0, 300.0);
+        box.boxDyMin = rng.uniform(-30.0, 0.0);
+        box.boxDyMax = box.boxDyMin + rng.uniform(10.0, 60.0);
+        box.shape.maxAreaRatio = 3.0;
+        const Pairs expectedBox = bruteForce(box, parallelRig(), left, right);
+        EXPECT_GT(expectedBox.size(), 10u);
+        EXPECT_EQ(matchWith(box, parallelRig(), left, right), expectedBox);
+
+        MatchConfig line = config(MatchMethod::EpipolarLine);
+        line.maxEpipolarDistancePx = rng.uniform(0.5, 8.0);
+        line.minRangeMm = rng.uniform(300.0, 900.0);
+        line.maxRangeMm = line.minRangeMm + rng.uniform(100.0, 5000.0);
+        const StereoSystemConfig rig = trial % 2 ? rotatedRig() : test::scorpionCalibration();
+        const Pairs expectedLine = bruteForce(line, rig, left, right);
+        EXPECT_GT(expectedLine.size(), 5u);
+        EXPECT_EQ(matchWith(line, rig, left, right), expectedLine);
+    }
+}
+
+// ---------------------------------------------------------------------------
+// 1,000 x 1,000 features.
+
+/// A deterministic permutation of 0..n-1.
+std::vector<int> shuffled(int n) {
+    std::vector<int> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    unsigned state = 12345u;
+    for (int i = n - 1; i > 0; --i) {
+        state = state * 1664525u + 1013904223u;
+        std::swap(order[static_cast<std::size_t>(i)], order[(state >> 8) % static_cast<unsigned>(i + 1)]);
+    }
+    return order;
+}
+
+int jitter(int i, int range) { return static_cast<int>((i * 7919u) % static_cast<unsigned>(2 * range + 1)) - range; }
+
+TEST(LargeScene, ThousandFeaturesThroughTheBox) {
+    // 40 x 25 targets 30 px apart; each right image is the left shifted by a
+    // disparity of 100 +- 3 px and 0 +- 2 rows. The right list is shuffled.
+    const int n = 1000;
+    const std::vector<int> order = shuffled(n);
+    std::vector<Feature> left, right(static_cast<std::size_t>(n));
+    Pairs truth;
+    for (int i = 0; i < n; ++i) {
+        const Feature l = rect(40 + 30 * (i % 40), 40 + 36 * (i / 40), 8 + i % 5, 8 + i % 3);
+        left.push_back(l);
+        const int j = order[static_cast<std::size_t>(i)];
+        right[static_cast<std::size_t>(j)] = shifted(l, -100 - jitter(i, 3), -jitter(i + 17, 2));
+        truth.push_back({i, j});
+    }
+    MatchConfig m = config(MatchMethod::EpipolarBox);
+    m.boxDxMin = 90.0;
+    m.boxDxMax = 110.0;
+    m.boxDyMin = -5.0;
+    m.boxDyMax = 5.0;
+    EXPECT_EQ(matchWith(m, parallelRig(), left, right), truth);
+}
+
+TEST(LargeScene, ThousandFeaturesThroughTheLineWithDistortion) {
+    // The Scorpion calibration with distortion; targets on a 40 x 25 pixel grid
+    // of the left image at depths 1000 +- 20 mm, projected into the right image.
+    StereoSystemConfig s = test::scorpionCalibration();
+    s.left.kc = {-0.15, 0.06, 0.001, -0.001, 0.0};
+    s.right.kc = {-0.14, 0.05, -0.001, 0.0008, 0.0};
+    const RigidTransform rTl = rightTLeft(s);
+    const int n = 1000;
+    const std::vector<int> order = shuffled(n);
+    std::vector<Feature> left, right(static_cast<std::size_t>(n));
+    Pairs truth;
+    for (int i = 0; i < n; ++i) {
+        const cv::Point2d pl(130.0 + 30.0 * (i % 40), 110.0 + 36.0 * (i / 40));
+        const cv::Point2d xn = normalizePixel(s.left, pl);
+        const double z = 1000.0 + jitter(i, 20);
+        const cv::Point3d X(xn.x * z, xn.y * z, z);
+        const auto pr = projectPoint(s.right, transformPoint(rTl, X));
+        ASSERT_TRUE(pr);
+        const int w = 8 + i % 5, h = 8 + i % 3;
+        left.push_back(rectAt(pl, w, h));
+        const int j = order[static_cast<std::size_t>(i)];
+        right[static_cast<std::size_t>(j)] = rectAt(*pr, w, h);
+        truth.push_back({i, j});
+    }
+    MatchConfig m = config(MatchMethod::EpipolarLine);
+    m.minRangeMm = 950.0;
+    m.maxRangeMm = 1050.0;
+    m.maxEpipolarDistancePx = 2.0;
+    EXPECT_EQ(matchWith(m, s, left, right), truth);
+}
+
+// ---------------------------------------------------------------------------
+// Configuration checks.
+
+TEST(SIPFeatureMatcher, RejectsUnusableConfigurations) {
+    const StereoSystemConfig s = parallelRig();
+    auto rejects = [&](auto change) {
+        MatchConfig m;
+        change(m);
+        EXPECT_THROW((void)SIPFeatureMatcher(m, s), InvalidArgument);
+    };
+    rejects([](MatchConfig& m) { m.boxDxMax = m.boxDxMin; });
+    rejects([](MatchConfig& m) { m.boxDyMin = 20.0; });
+    rejects([](MatchConfig& m) { m.maxEpipolarDistancePx = -1.0; });
+    rejects([](MatchConfig& m) { m.minRangeMm = 0.0; });
+    rejects([](MatchConfig& m) { m.maxRangeMm = m.minRangeMm; });
+    rejects([](MatchConfig& m) { m.shape.magnitudeWeight = -0.1; });
+    rejects([](MatchConfig& m) { m.shape.maxAreaRatio = 0.5; });
+    rejects([](MatchConfig& m) { m.shape.maxError = std::nan(""); });
+    StereoSystemConfig bad = s;
+    bad.right.fc[1] = 0.0;
+    EXPECT_THROW((void)SIPFeatureMatcher(MatchConfig{}, bad), InvalidArgument);
+    EXPECT_NO_THROW((void)SIPFeatureMatcher(MatchConfig{}, s));
+}
+
+}  // namespace
+}  // namespace avatar
