@@ -145,28 +145,28 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     return frame_.result;
 }
 
-StereoImagePair AnalyzeStereoImagePair::filteredImages() const {
-    if (frame_.original.empty()) return {};
+StereoImagePair AnalyzeStereoImagePair::filteredImages(const AnalysisFrame& frame) {
+    if (frame.original.empty()) return {};
     std::array<cv::Mat, 2> out;
     for (Side side : {Side::Left, Side::Right}) {
-        const ImageWork& w = frame_.at(side);
+        const ImageWork& w = frame.at(side);
         cv::Mat unionMask = cv::Mat::zeros(w.image.size(), CV_8UC1);
         for (const cv::Mat& m : w.masks) cv::bitwise_or(unionMask, m, unionMask);
         cv::Mat filtered = cv::Mat::zeros(w.image.size(), w.image.type());
         w.image.copyTo(filtered, unionMask);
         out[side == Side::Left ? 0 : 1] = filtered;
     }
-    return StereoImagePair(out[0], out[1], frame_.layout, frame_.original.id());
+    return StereoImagePair(out[0], out[1], frame.layout, frame.original.id());
 }
 
-StereoImagePair AnalyzeStereoImagePair::markedImages() const {
-    if (frame_.original.empty()) return {};
+StereoImagePair AnalyzeStereoImagePair::markedImages(const AnalysisFrame& frame) {
+    if (frame.original.empty()) return {};
     static const cv::Scalar kColours[] = {{0, 255, 255}, {255, 0, 255}, {255, 255, 0},
                                           {0, 128, 255}, {255, 128, 0}, {128, 255, 0}};
     std::array<cv::Mat, 2> out;
     for (Side side : {Side::Left, Side::Right}) {
-        const ImageWork& w = frame_.at(side);
-        cv::Mat display = toDisplay8(w.image, frame_.layout.bitDepth);
+        const ImageWork& w = frame.at(side);
+        cv::Mat display = toDisplay8(w.image, frame.layout.bitDepth);
         if (display.channels() == 1) cv::cvtColor(display, display, cv::COLOR_GRAY2BGR);
         for (std::size_t t = 0; t < w.features.size(); ++t) {
             const cv::Scalar colour = kColours[t % 6];
@@ -181,7 +181,7 @@ StereoImagePair AnalyzeStereoImagePair::markedImages() const {
     }
     // Label matched targets with the same number in both images.
     int number = 0;
-    for (const VisionTarget& t : frame_.result.targets) {
+    for (const VisionTarget& t : frame.result.targets) {
         if (!(t.flags & kTargetStereo)) continue;
         const std::string label = t.type + " " + std::to_string(number++);
         if (t.centroidLeftPx)
@@ -191,7 +191,7 @@ StereoImagePair AnalyzeStereoImagePair::markedImages() const {
             cv::putText(out[1], label, cv::Point(cvRound(t.centroidRightPx->x) + 6, cvRound(t.centroidRightPx->y) - 6),
                         cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1);
     }
-    return StereoImagePair(out[0], out[1], {PixelFormat::Bgr, BayerPattern::BG, 8}, frame_.original.id());
+    return StereoImagePair(out[0], out[1], {PixelFormat::Bgr, BayerPattern::BG, 8}, frame.original.id());
 }
 
 }  // namespace avatar

@@ -39,13 +39,20 @@ public:
     void setParallel(bool parallel) { parallel_ = parallel; }
 
     /// The last frame analysed (images, masks, features, matches, result).
+    /// Every analyze() builds a new frame with new image buffers, so a copy of
+    /// this frame (cv::Mat copies share pixels) stays valid and unchanged after
+    /// later analyses: another thread may keep one.
     const AnalysisFrame& lastFrame() const { return frame_; }
     /// The pair as acquired.
     const StereoImagePair& originalImages() const { return frame_.original; }
     /// The working images with everything outside the union of the target masks set to 0.
-    StereoImagePair filteredImages() const;
+    StereoImagePair filteredImages() const { return filteredImages(frame_); }
     /// The working images with features, boundary points, centroids and matches drawn.
-    StereoImagePair markedImages() const;
+    StereoImagePair markedImages() const { return markedImages(frame_); }
+
+    /// The same for any analysed frame (e.g. a copy kept by another thread).
+    static StereoImagePair filteredImages(const AnalysisFrame& frame);
+    static StereoImagePair markedImages(const AnalysisFrame& frame);
 
     const std::vector<std::string>& stageNames() const { return names_; }
 
