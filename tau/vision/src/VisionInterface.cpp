@@ -1,0 +1,282 @@
+#include <avatar/tau/VisionInterface.h>
+
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/common/Logging.h>
+#include <avatar/config/ConfigXml.h>
+
+#include <log4cpp/Category.hh>
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace avatar {
+
+const char* toString(VisionState state) {
+    switch (state) {
+        case VisionState::Idle: return "idle";
+        case VisionState::Searching: return "searching";
+        case VisionState::Snapshot: return "snapshot";
+        case VisionState::Error: return "error";
+    }
+    return "?";
+}
+
+namespace {
+
+log4cpp::Category& log() { return logging::category("vision"); }
+
+// How often the loop wakes when idle, so its heartbeat shows it is alive.
+constexpr std::chrono::milliseconds kIdleTick{100};
+
+}  // namespace
+
+/// The vision thread and everything it owns. Members above the mutex are
+/// touched only by the vision thread (or before it starts); members below it
+/// are shared and guarded by it.
+class VisionInterface::Loop {
+public:
+    Loop(std::unique_ptr<AcquireStereoImagePair> backend, const AvatarConfig& config, VisionOptions options)
+        : backend_(std::move(backend)), options_(std::move(options)) {
+        if (!backend_) throw InvalidArgument("VisionInterface: no acquisition backend");
+        backendName_ = backend_->name();
+        install(config);  // throws: nothing started yet
+        thread_ = std::thread([this] { run(); });
+    }
+
+    ~Loop() {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            stop_ = true;
+        }
+        wake_.notify_all();
+        thread_.join();
+    }
+
+    void startSearching() {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (status_.state == VisionState::Error)
+            throw InvalidArgument("cannot start searching: " + status_.error);
+        if (status_.acquisition.state == AcquisitionStatus::State::Finished)
+            throw InvalidArgument("cannot start searching: the " + backendName_ + " backend has no more pairs (" +
+                                  status_.acquisition.message + ")");
+        searching_ = true;
+        wake_.notify_all();
+    }
+
+    void stopSearching() {
+        std::lock_guard<std::mutex> lock(mutex_);
+        searching_ = false;
+    }
+
+    VisionTargets snapshot(std::chrono::milliseconds timeout) {
+        std::future<VisionTargets> result;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            if (status_.state == VisionState::Error)
+                throw AcquisitionError("cannot take a snapshot: " + status_.error);
+            snapshots_.emplace_back();
+            result = snapshots_.back().get_future();
+        }
+        wake_.notify_all();
+        if (result.wait_for(timeout) != std::future_status::ready)
+            throw Error("snapshot timed out after " + std::to_string(timeout.count()) + " ms");
+        return result.get();
+    }
+
+    std::uint32_t applyConfig(const std::string& xml, std::chrono::milliseconds timeout) {
+        // Validate on the caller's thread: a bad document never reaches the loop.
+        AvatarConfig config = readConfigString(xml, "sent configuration");
+        auto cancelled = std::make_shared<std::atomic<bool>>(false);
+        std::packaged_task<std::uint32_t()> task([this, config, cancelled]() -> std::uint32_t {
+            if (*cancelled) throw Error("configuration change was cancelled (timed out)");
+            install(config);
+            std::lock_guard<std::mutex> lock(mutex_);
+            return status_.configVersion;
+        });
+        auto done = task.get_future();
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            commands_.emplace_back(std::move(task));
+        }
+        wake_.notify_all();
+        if (done.wait_for(timeout) != std::future_status::ready) {
+            *cancelled = true;  // if it has not started, it never will
+            if (done.wait_for(std::chrono::milliseconds(0)) != std::future_status::ready)
+                throw Error("configuration change timed out after " + std::to_string(timeout.count()) +
+                            " ms; the previous configuration stays in force");
+        }
+        return done.get();
+    }
+
+    std::optional<VisionTargets> latestTargets() const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return latest_;
+    }
+
+    VisionImages images(ImageKind kind) const {
+        std::shared_ptr<const AnalysisFrame> frame;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            frame = frame_;
+        }
+        VisionImages out;
+        if (!frame) return out;
+        out.iteration = frame->result.iteration;
+        switch (kind) {
+            case ImageKind::Original: out.pair = frame->original; break;
+            case ImageKind::Filtered: out.pair = AnalyzeStereoImagePair::filteredImages(*frame); break;
+            case ImageKind::Marked: out.pair = AnalyzeStereoImagePair::markedImages(*frame); break;
+        }
+        return out;
+    }
+
+    std::string configXml() const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return configXml_;
+    }
+    AvatarConfig config() const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return config_;
+    }
+    VisionStatus status() const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return status_;
+    }
+    std::string backendName() const { return backendName_; }
+
+private:
+    /// Applies a configuration to the backend and the analysis, all or nothing.
+    /// Vision thread only (or the constructor).
+    void install(const AvatarConfig& config) {
+        auto analyzer = std::make_unique<AnalyzeStereoImagePair>(config, options_.configDirectory);
+        backend_->applyConfig(config);  // throws and keeps the old settings
+        analyzer_ = std::move(analyzer);
+        const std::string xml = writeConfigString(config);
+        std::lock_guard<std::mutex> lock(mutex_);
+        const bool first = configXml_.empty();
+        config_ = config;
+        configXml_ = xml;
+        if (!first) ++status_.configVersion;
+        status_.configIteration = status_.iteration + 1;
+        log().notice("configuration %u in force from iteration %llu", status_.configVersion,
+                     static_cast<unsigned long long>(status_.configIteration));
+    }
+
+    /// One acquisition and analysis. Vision thread only.
+    VisionTargets iterate() {
+        AcquiredPair acquired = backend_->acquire();
+        if (acquired.recordedConfigXml) {
+            // A replay reached a recorded configuration change: apply it as it was applied then.
+            const AvatarConfig recorded = readConfigString(*acquired.recordedConfigXml, "recorded configuration");
+            if (recorded != config()) install(recorded);
+        }
+        std::uint64_t iteration;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            iteration = acquired.recordedIteration.value_or(status_.iteration + 1);
+        }
+        VisionTargets result = analyzer_->analyze(acquired.pair, iteration);
+        auto frame = std::make_shared<const AnalysisFrame>(analyzer_->lastFrame());
+        std::lock_guard<std::mutex> lock(mutex_);
+        latest_ = result;
+        frame_ = std::move(frame);
+        status_.iteration = iteration;
+        status_.targetsIteration = iteration;
+        status_.imagesIteration = iteration;
+        status_.visibility = result.visibility;
+        status_.visibilityReason = result.visibilityReason;
+        status_.acquisition = backend_->status();
+        return result;
+    }
+
+    void run() {
+        std::unique_lock<std::mutex> lock(mutex_);
+        while (!stop_) {
+            ++status_.heartbeat;
+            while (!commands_.empty()) {
+                auto command = std::move(commands_.front());
+                commands_.pop_front();
+                lock.unlock();
+                command();  // its exception goes to the caller's future
+                lock.lock();
+            }
+            if (!searching_ && snapshots_.empty()) {
+                if (status_.state != VisionState::Error) status_.state = VisionState::Idle;
+                wake_.wait_for(lock, kIdleTick);
+                continue;
+            }
+            status_.state = searching_ ? VisionState::Searching : VisionState::Snapshot;
+            auto waiting = std::move(snapshots_);
+            snapshots_.clear();
+            lock.unlock();
+            try {
+                const VisionTargets result = iterate();
+                for (auto& p : waiting) p.set_value(result);
+                lock.lock();
+            } catch (const std::exception& e) {
+                const auto backendStatus = backend_->status();
+                for (auto& p : waiting) p.set_exception(std::current_exception());
+                lock.lock();
+                status_.acquisition = backendStatus;
+                status_.error = e.what();
+                log().error("iteration failed: %s", e.what());
+                if (backendStatus.state == AcquisitionStatus::State::Failed) {
+                    status_.state = VisionState::Error;
+                    searching_ = false;
+                } else if (backendStatus.state == AcquisitionStatus::State::Finished) {
+                    searching_ = false;
+                }
+            }
+            if (searching_ && options_.searchPeriod.count() > 0)
+                wake_.wait_for(lock, options_.searchPeriod, [this] { return stop_ || !commands_.empty(); });
+        }
+        // Nobody will fulfil these any more.
+        for (auto& p : snapshots_) p.set_exception(std::make_exception_ptr(Error("vision interface stopped")));
+    }
+
+    // Vision thread only.
+    std::unique_ptr<AcquireStereoImagePair> backend_;
+    std::unique_ptr<AnalyzeStereoImagePair> analyzer_;
+    const VisionOptions options_;
+    std::string backendName_;
+
+    // Shared, guarded by mutex_.
+    mutable std::mutex mutex_;
+    std::condition_variable wake_;
+    bool stop_{false};
+    bool searching_{false};
+    std::deque<std::packaged_task<std::uint32_t()>> commands_;
+    std::vector<std::promise<VisionTargets>> snapshots_;
+    AvatarConfig config_;
+    std::string configXml_;
+    std::optional<VisionTargets> latest_;
+    std::shared_ptr<const AnalysisFrame> frame_;
+    VisionStatus status_;
+
+    std::thread thread_;  // last: starts after everything above exists
+};
+
+VisionInterface::VisionInterface(std::unique_ptr<AcquireStereoImagePair> backend, const AvatarConfig& config,
+                                 VisionOptions options)
+    : loop_(std::make_unique<Loop>(std::move(backend), config, std::move(options))) {}
+VisionInterface::~VisionInterface() = default;
+void VisionInterface::startSearching() { loop_->startSearching(); }
+void VisionInterface::stopSearching() { loop_->stopSearching(); }
+VisionTargets VisionInterface::snapshot(std::chrono::milliseconds timeout) { return loop_->snapshot(timeout); }
+std::optional<VisionTargets> VisionInterface::latestTargets() const { return loop_->latestTargets(); }
+VisionImages VisionInterface::images(ImageKind kind) const { return loop_->images(kind); }
+std::uint32_t VisionInterface::applyConfig(const std::string& xml, std::chrono::milliseconds timeout) {
+    return loop_->applyConfig(xml, timeout);
+}
+std::string VisionInterface::configXml() const { return loop_->configXml(); }
+AvatarConfig VisionInterface::config() const { return loop_->config(); }
+VisionStatus VisionInterface::status() const { return loop_->status(); }
+std::string VisionInterface::backendName() const { return loop_->backendName(); }
+
+}  // namespace avatar

@@ -1,0 +1,190 @@
+// VisionInterface driven by the simulation backend: real rendering, real
+// analysis, real threads.
+
+#include <avatar/analyze/CameraModel.h>
+#include <avatar/config/ConfigXml.h>
+#include <avatar/render/AcquireSIPSimulation.h>
+#include <avatar/tau/VisionInterface.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include <thread>
+
+using namespace avatar;
+using namespace std::chrono_literals;
+
+namespace {
+
+// The Scorpion calibration (thesis Table 6-4) at half resolution, 640x480.
+StereoSystemConfig halfScorpion() {
+    StereoSystemConfig c;
+    c.left.fc = {1049.13 / 2, 1050.38 / 2};
+    c.left.cc = {712.28 / 2, 564.45 / 2};
+    c.right.fc = {1047.20 / 2, 1048.66 / 2};
+    c.right.cc = {702.74 / 2, 561.13 / 2};
+    c.om = {0.002, 0.003, 0.047};
+    c.translationMm = {-106.53, -2.58, 0.82};
+    return c;
+}
+
+AvatarConfig config() {
+    AvatarConfig c;
+    c.camera.width = 640;
+    c.camera.height = 480;
+    c.camera.bitDepth = 16;
+    c.camera.channels = 1;
+    c.camera.bayer = true;
+    c.camera.bayerPattern = BayerPattern::BG;
+    c.stereo = halfScorpion();
+    TargetType sample;
+    sample.name = "sample";
+    sample.redGreen = {0.9, 1.6};
+    sample.redBlue = {2.5, 100};
+    sample.blueGreen = {0, 0.45};
+    sample.area = {100, 1e6};
+    sample.shape = TargetShape::Sphere;
+    c.targets.targets = {sample};
+    c.match.boxDxMin = 5;
+    c.match.boxDxMax = 200;
+    c.match.boxDyMin = -20;
+    c.match.boxDyMax = 25;
+    return c;
+}
+
+const cv::Point3d kSphereMm{30, 20, 800};
+
+std::unique_ptr<render::AcquireSIPSimulation> simulation() {
+    render::Scene scene;
+    scene.seabed.distanceMm = 1200;
+    scene.sensor.readNoiseDn = 8;
+    render::TargetSpec sphere;
+    sphere.name = "ball";
+    sphere.type = "sample";
+    sphere.shape = render::Shape::Sphere;
+    sphere.centreMm = {kSphereMm.x, kSphereMm.y, kSphereMm.z};
+    sphere.radiusMm = 30;
+    scene.targets = {sphere};
+    render::RenderOptions options;
+    options.sensor.width = 640;
+    options.sensor.height = 480;
+    options.seed = 7;
+    return std::make_unique<render::AcquireSIPSimulation>(scene, halfScorpion(), options);
+}
+
+template <typename Predicate>
+bool eventually(Predicate p, std::chrono::milliseconds limit = 30s) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < end) {
+        if (p()) return true;
+        std::this_thread::sleep_for(20ms);
+    }
+    return p();
+}
+
+}  // namespace
+
+TEST(VisionInterface, SnapshotLocatesTheSphereAndUpdatesTheBookkeeping) {
+    VisionInterface vision(simulation(), config());
+    EXPECT_EQ(vision.backendName(), "simulation");
+    EXPECT_FALSE(vision.latestTargets().has_value());
+    EXPECT_EQ(vision.images(ImageKind::Original).iteration, 0u);
+
+    const VisionTargets result = vision.snapshot();
+    EXPECT_EQ(result.iteration, 1u);
+    EXPECT_EQ(result.acquisition.group, 1u);
+    EXPECT_EQ(result.acquisition.member, 0u);
+    EXPECT_EQ(result.acquisition.left.cameraId, "sim-left");
+    ASSERT_EQ(result.targets.size(), 1u);
+    const VisionTarget& t = result.targets[0];
+    EXPECT_EQ(t.type, "sample");
+    EXPECT_TRUE(t.flags & kTargetStereo);
+    EXPECT_TRUE(t.flags & kTargetShapeCorrected);
+    ASSERT_TRUE(t.positionVisionMm.has_value());
+    EXPECT_LT(cv::norm(*t.positionVisionMm - kSphereMm), 3.0) << *t.positionVisionMm;
+
+    const VisionStatus s = vision.status();
+    EXPECT_EQ(s.state, VisionState::Idle);
+    EXPECT_EQ(s.iteration, 1u);
+    EXPECT_EQ(s.targetsIteration, 1u);
+    EXPECT_EQ(s.imagesIteration, 1u);
+    EXPECT_EQ(s.configVersion, 1u);
+    EXPECT_EQ(s.configIteration, 1u);
+    EXPECT_EQ(s.visibility, Visibility::Good);
+    EXPECT_EQ(vision.latestTargets()->iteration, 1u);
+
+    const VisionImages original = vision.images(ImageKind::Original);
+    EXPECT_EQ(original.iteration, 1u);
+    EXPECT_EQ(original.pair.size(), cv::Size(640, 480));
+    EXPECT_EQ(original.pair.layout().format, PixelFormat::Bayer);
+    const VisionImages marked = vision.images(ImageKind::Marked);
+    EXPECT_EQ(marked.pair.left().type(), CV_8UC3);
+    const VisionImages filtered = vision.images(ImageKind::Filtered);
+    const auto px = *projectPoint(halfScorpion().left, kSphereMm);
+    EXPECT_GT(cv::norm(filtered.pair.left().at<cv::Vec3w>(cvRound(px.y), cvRound(px.x))), 0.0);
+    EXPECT_EQ(filtered.pair.left().at<cv::Vec3w>(5, 5), cv::Vec3w(0, 0, 0));
+}
+
+TEST(VisionInterface, SearchingRunsUntilStoppedAndTheHeartbeatBeats) {
+    VisionInterface vision(simulation(), config());
+    const auto idleBeat = vision.status().heartbeat;
+    std::this_thread::sleep_for(350ms);
+    EXPECT_GE(vision.status().heartbeat, idleBeat + 2);  // the idle loop ticks every 100 ms
+
+    vision.startSearching();
+    ASSERT_TRUE(eventually([&] { return vision.status().iteration >= 3; }));
+    EXPECT_EQ(vision.status().state, VisionState::Searching);
+    vision.stopSearching();
+    ASSERT_TRUE(eventually([&] { return vision.status().state == VisionState::Idle; }));
+    const auto stoppedAt = vision.status().iteration;
+    std::this_thread::sleep_for(300ms);
+    EXPECT_EQ(vision.status().iteration, stoppedAt);
+    EXPECT_EQ(vision.latestTargets()->iteration, stoppedAt);
+    // Members count up within the first group.
+    EXPECT_EQ(vision.latestTargets()->acquisition.member, stoppedAt - 1);
+}
+
+TEST(VisionInterface, RejectedConfigurationKeepsTheOldOne) {
+    VisionInterface vision(simulation(), config());
+    const std::string before = vision.configXml();
+    std::string bad = before;
+    bad.replace(bad.find("<width>640</width>"), 18, "<width>wide</width>");
+    try {
+        vision.applyConfig(bad);
+        FAIL() << "accepted";
+    } catch (const ConfigError& e) {
+        EXPECT_EQ(e.elementPath(), "/avatar/camera/width");
+        EXPECT_NE(std::string(e.what()).find("expected"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(vision.configXml(), before);
+    EXPECT_EQ(vision.status().configVersion, 1u);
+    // Still works with the old configuration.
+    EXPECT_EQ(vision.snapshot().targets.size(), 1u);
+}
+
+TEST(VisionInterface, AppliedConfigurationStartsANewGroupAndVersion) {
+    VisionInterface vision(simulation(), config());
+    vision.snapshot();
+    vision.snapshot();
+    AvatarConfig narrower = config();
+    narrower.targets.targets[0].area = {100, 200};  // the sphere is larger: filtered out
+    EXPECT_EQ(vision.applyConfig(writeConfigString(narrower)), 2u);
+    const VisionStatus s = vision.status();
+    EXPECT_EQ(s.configVersion, 2u);
+    EXPECT_EQ(s.configIteration, 3u);
+    EXPECT_EQ(vision.config(), narrower);
+    const VisionTargets third = vision.snapshot();
+    EXPECT_EQ(third.iteration, 3u);
+    EXPECT_EQ(third.acquisition.group, 2u);
+    EXPECT_EQ(third.acquisition.member, 0u);
+    EXPECT_TRUE(third.targets.empty());
+}
+
+TEST(VisionInterface, AnalysisThatCannotBeBuiltIsRejectedWhole) {
+    VisionInterface vision(simulation(), config());
+    AvatarConfig broken = config();
+    broken.analysis.stages = {"demosaic", "match"};
+    EXPECT_THROW(vision.applyConfig(writeConfigString(broken)), InvalidArgument);
+    EXPECT_EQ(vision.config(), config());
+    EXPECT_EQ(vision.status().configVersion, 1u);
+}
