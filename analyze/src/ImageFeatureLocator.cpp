@@ -2,17 +2,23 @@
 /// Erode + feature-AND restore (thesis 3.3.2) and the feature locator with its
 /// geometric filter (thesis 3.3.3, Table 3-1, Figure 3-13, Appendix C).
 ///
-/// Both stages are built on cv::connectedComponents (8-connected), which is
-/// iterative (no recursion, so no stack overflow on large features as the
-/// thesis's recursive CheckConnectedPixels had) and linear in the image size.
-/// Everything per feature is then gathered in one raster-order pass over the
-/// label image with per-label accumulators, so the cost does not grow with the
-/// number of features beyond the size of those accumulators.
+/// Both are built on one run-based 8-connected labelling (labelRuns below):
+/// each mask row is cut into runs of "on" pixels, skipping empty stretches
+/// eight bytes at a time, runs that touch a run of the row above (8-connected)
+/// are joined in a union-find over runs, and components are numbered in
+/// raster order of their first pixel. It is iterative (no recursion, so no
+/// stack overflow on large features as the thesis's recursive
+/// CheckConnectedPixels had), serial, writes no label image, and its cost is
+/// one read of the mask plus a little per run: filtered masks are mostly
+/// empty. Everything per feature is then gathered per run with per-component
+/// accumulators.
 ///
-/// cv::connectedComponentsWithStats is not used: its statistics are gathered
-/// for every pixel, background included, and made it 3-8 times slower than
-/// plain labelling on a 1280x960 mask; the pass below computes area, box and
-/// centroid sums anyway, for the "on" pixels only.
+/// cv::connectedComponents was used before: it writes a 32-bit label for every
+/// pixel (4.9 MB per 1280x960 mask), and with OpenCV's thread pool it competes
+/// with the orchestrator's own two threads. It cost about 35% of the
+/// instructions of a whole analysis (callgrind); the run labelling, about 2%
+/// (docs/benchmarks.md). cv::connectedComponentsWithStats is slower still: its
+/// statistics are gathered for every pixel, background included.
 
 #include <avatar/analyze/ImageFeatureLocator.h>
 
@@ -50,22 +56,103 @@ void requireMask(const cv::Mat& mask, const char* function) {
     }
 }
 
-/// Calls @p f(x) for each non-zero byte of @p row, skipping zero runs eight
-/// bytes at a time (filtered masks are mostly empty).
-template <typename F>
-inline void forEachNonZero(const std::uint8_t* row, int cols, F&& f) {
+std::uint64_t load8(const std::uint8_t* p) {
+    std::uint64_t word;
+    std::memcpy(&word, p, sizeof word);
+    return word;
+}
+
+/// True when one of the eight bytes of @p v is zero.
+bool hasZeroByte(std::uint64_t v) {
+    return ((v - 0x0101010101010101ULL) & ~v & 0x8080808080808080ULL) != 0;
+}
+
+/// A run of "on" pixels [x0, x1) of row y.
+struct Run {
+    int y;
+    int x0;
+    int x1;
+};
+
+/// The runs of a mask in raster order and their 8-connected components.
+struct RunComponents {
+    std::vector<Run> runs;
+    std::vector<int> component;  ///< per run: 0 .. count-1, in raster order of the first pixel
+    int count{0};
+};
+
+/// Appends the runs of one row.
+void rowRuns(const std::uint8_t* row, int cols, int y, std::vector<Run>& runs) {
     int x = 0;
-    for (; x + 8 <= cols; x += 8) {
-        std::uint64_t word;
-        std::memcpy(&word, row + x, sizeof word);
-        if (word == 0) continue;
-        for (int i = x; i < x + 8; ++i) {
-            if (row[i] != 0) f(i);
+    while (x < cols) {
+        while (x + 8 <= cols && load8(row + x) == 0) x += 8;
+        while (x < cols && row[x] == 0) ++x;
+        if (x >= cols) break;
+        const int start = x;
+        while (x + 8 <= cols && !hasZeroByte(load8(row + x))) x += 8;
+        while (x < cols && row[x] != 0) ++x;
+        runs.push_back({y, start, x});
+    }
+}
+
+int findRoot(std::vector<int>& parent, int i) {
+    int root = i;
+    while (parent[static_cast<std::size_t>(root)] != root) root = parent[static_cast<std::size_t>(root)];
+    while (parent[static_cast<std::size_t>(i)] != root) {  // path compression
+        const int next = parent[static_cast<std::size_t>(i)];
+        parent[static_cast<std::size_t>(i)] = root;
+        i = next;
+    }
+    return root;
+}
+
+/// 8-connected components of @p mask (any non-zero byte is "on"). The root of
+/// each component is its earliest run, so numbering the roots in run order
+/// numbers the components in raster order of their first pixel.
+void labelRuns(const cv::Mat& mask, RunComponents& out) {
+    std::vector<Run>& runs = out.runs;
+    runs.clear();
+    std::vector<int> parent;
+    std::size_t prevBegin = 0, prevEnd = 0;  // runs of the row above
+    for (int y = 0; y < mask.rows; ++y) {
+        const std::size_t begin = runs.size();
+        rowRuns(mask.ptr<std::uint8_t>(y), mask.cols, y, runs);
+        const std::size_t end = runs.size();
+        for (std::size_t i = begin; i < end; ++i) parent.push_back(static_cast<int>(i));
+        if (prevEnd > prevBegin && runs[prevBegin].y == y - 1) {
+            std::size_t p = prevBegin;
+            for (std::size_t i = begin; i < end; ++i) {
+                const Run& r = runs[i];
+                // Above-row runs that end left of x0 - 1 touch neither this run nor later ones.
+                while (p < prevEnd && runs[p].x1 < r.x0) ++p;
+                for (std::size_t q = p; q < prevEnd && runs[q].x0 <= r.x1; ++q) {
+                    const int a = findRoot(parent, static_cast<int>(i));
+                    const int b = findRoot(parent, static_cast<int>(q));
+                    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+                }
+            }
+        }
+        if (end > begin) {
+            prevBegin = begin;
+            prevEnd = end;
         }
     }
-    for (; x < cols; ++x) {
-        if (row[x] != 0) f(x);
+    out.component.resize(runs.size());
+    out.count = 0;
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+        const int root = findRoot(parent, static_cast<int>(i));
+        out.component[i] = root == static_cast<int>(i) ? out.count++ : out.component[static_cast<std::size_t>(root)];
     }
+}
+
+/// True when any byte of row[x0, x1) is non-zero.
+bool anyNonZero(const std::uint8_t* row, int x0, int x1) {
+    int x = x0;
+    for (; x + 8 <= x1; x += 8)
+        if (load8(row + x) != 0) return true;
+    for (; x < x1; ++x)
+        if (row[x] != 0) return true;
+    return false;
 }
 
 /// Per-feature sums gathered in the single pass over the label image. All
@@ -91,80 +178,76 @@ struct Accumulator {
     std::int64_t sumWX{0};  ///< sum of (R+G+B) x
     std::int64_t sumWY{0};  ///< sum of (R+G+B) y
 
-    /// Appendix C's update for pixel (x, y), simplified by the raster order
-    /// of the scan: y never decreases and, within a row, x increases. So the
+    /// Appendix C's update for the pixels x = a .. b (inclusive) of row y,
+    /// taken one after the other, in O(1). Simplified by the raster order of
+    /// the scan: y never decreases and, within a row, x increases. So the
     /// first pixel fixes Y_top and point 1; a later pixel on the top row is
     /// the new point 2; a pixel below Y_bot starts a new bottom row (points 5
     /// and 6), one on it is the new point 5; a pixel left of X_l (right of
     /// X_r) restarts that column's points 7 and 8 (3 and 4), one on it is the
-    /// new point 7 (4), being the lowest so far.
-    void add(int x, int y) {
+    /// new point 7 (4), being the lowest so far. Within a run only its first
+    /// pixel can be left of or on X_l, and its last decides X_r.
+    void addRun(int a, int b, int y) {
         if (area == 0) {
             top = bottom = y;
-            left = right = x;
-            topMinX = topMaxX = bottomMinX = bottomMaxX = x;
+            left = topMinX = bottomMinX = a;
+            right = topMaxX = bottomMaxX = b;
             leftMinY = leftMaxY = rightMinY = rightMaxY = y;
         } else {
-            if (y == top) topMaxX = x;
+            if (y == top) topMaxX = b;
             if (y > bottom) {
                 bottom = y;
-                bottomMinX = bottomMaxX = x;
-            } else {
-                bottomMaxX = x;
+                bottomMinX = a;
             }
-            if (x < left) {
-                left = x;
+            bottomMaxX = b;
+            if (a < left) {
+                left = a;
                 leftMinY = leftMaxY = y;
-            } else if (x == left) {
+            } else if (a == left) {
                 leftMaxY = y;
             }
-            if (x > right) {
-                right = x;
+            if (b > right) {
+                right = b;
                 rightMinY = rightMaxY = y;
-            } else if (x == right) {
+            } else if (b == right) {
                 rightMaxY = y;
             }
         }
-        ++area;
-        sumX += x;
-        sumY += y;
+        const std::int64_t n = b - a + 1;
+        area += static_cast<int>(n);
+        sumX += (static_cast<std::int64_t>(a) + b) * n / 2;
+        sumY += static_cast<std::int64_t>(y) * n;
     }
 };
 
-/// Brightness weight R+G+B of one intensity pixel, or nothing.
-struct NoIntensity {
-    static constexpr bool kWeighted = false;
-    static std::int64_t weight(const cv::Mat&, int, int) { return 0; }
-};
+/// Adds the brightness weights R+G+B of the pixels x = a .. b of one
+/// intensity row to @p acc.
 template <typename Channel>
-struct BgrIntensity {
-    static constexpr bool kWeighted = true;
-    static std::int64_t weight(const cv::Mat& image, int y, int x) {
-        const Channel* p = image.ptr<Channel>(y) + 3 * x;
-        return static_cast<std::int64_t>(p[0]) + p[1] + p[2];
+void addWeights(Accumulator& acc, const cv::Mat& intensity, int a, int b, int y) {
+    const Channel* p = intensity.ptr<Channel>(y);
+    std::int64_t sumW = 0, sumWX = 0;
+    for (int x = a; x <= b; ++x) {
+        const std::int64_t w = static_cast<std::int64_t>(p[3 * x]) + p[3 * x + 1] + p[3 * x + 2];
+        sumW += w;
+        sumWX += w * x;
     }
-};
+    acc.sumW += sumW;
+    acc.sumWX += sumWX;
+    acc.sumWY += sumW * y;
+}
 
-/// The single pass over the window: every "on" pixel updates the accumulator
-/// of its label. @p order receives the labels in raster order of their first
-/// pixel. @p intensity is the window's part of the intensity image (or empty).
-template <typename Weight>
-void accumulate(const cv::Mat& roi, const cv::Mat& labels, const cv::Mat& intensity,
-                std::vector<Accumulator>& acc, std::vector<int>& order) {
-    for (int y = 0; y < roi.rows; ++y) {
-        const int* l = labels.ptr<int>(y);
-        forEachNonZero(roi.ptr<std::uint8_t>(y), roi.cols, [&](int x) {
-            const int label = l[x];
-            Accumulator& a = acc[static_cast<std::size_t>(label)];
-            if (a.area == 0) order.push_back(label);
-            a.add(x, y);
-            if constexpr (Weight::kWeighted) {
-                const std::int64_t w = Weight::weight(intensity, y, x);
-                a.sumW += w;
-                a.sumWX += w * x;
-                a.sumWY += w * y;
-            }
-        });
+/// Every run updates the accumulator of its component. @p intensity is the
+/// window's part of the intensity image (or empty).
+void accumulate(const RunComponents& c, const cv::Mat& intensity, std::vector<Accumulator>& acc) {
+    for (std::size_t i = 0; i < c.runs.size(); ++i) {
+        const Run& r = c.runs[i];
+        Accumulator& a = acc[static_cast<std::size_t>(c.component[i])];
+        a.addRun(r.x0, r.x1 - 1, r.y);
+        if (intensity.empty()) continue;
+        if (intensity.depth() == CV_8U)
+            addWeights<std::uint8_t>(a, intensity, r.x0, r.x1 - 1, r.y);
+        else
+            addWeights<std::uint16_t>(a, intensity, r.x0, r.x1 - 1, r.y);
     }
 }
 
@@ -214,34 +297,33 @@ cv::Mat erodeRestore(const cv::Mat& mask, int kernelSize) {
     cv::erode(mask, eroded, cv::getStructuringElement(cv::MORPH_RECT, {kernelSize, kernelSize}),
               cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::morphologyDefaultBorderValue());
 
-    // Reconstruction: label the original, mark every label that still has an
-    // eroded pixel, then keep exactly the pixels of the marked labels.
-    cv::Mat labels;
-    const int count = cv::connectedComponents(mask, labels, 8, CV_32S);
-    std::vector<std::uint8_t> keep(static_cast<std::size_t>(count), 0);
+    // Reconstruction: label the original, mark every component that still
+    // has an eroded pixel (eroded pixels are a subset of the original's, so
+    // only the runs need looking at), then write exactly its runs.
+    RunComponents c;
+    labelRuns(mask, c);
+    std::vector<std::uint8_t> keep(static_cast<std::size_t>(c.count), 0);
     int survivors = 0;
-    for (int y = 0; y < mask.rows; ++y) {
-        const int* l = labels.ptr<int>(y);
-        forEachNonZero(eroded.ptr<std::uint8_t>(y), mask.cols, [&](int x) {
-            std::uint8_t& k = keep[static_cast<std::size_t>(l[x])];
-            survivors += k == 0;
+    for (std::size_t i = 0; i < c.runs.size(); ++i) {
+        std::uint8_t& k = keep[static_cast<std::size_t>(c.component[i])];
+        if (k != 0) continue;
+        const Run& r = c.runs[i];
+        if (anyNonZero(eroded.ptr<std::uint8_t>(r.y), r.x0, r.x1)) {
             k = 255;
-        });
+            ++survivors;
+        }
     }
 
     cv::Mat restored = cv::Mat::zeros(mask.size(), CV_8UC1);
-    if (survivors > 0) {
-        for (int y = 0; y < mask.rows; ++y) {
-            const int* l = labels.ptr<int>(y);
-            std::uint8_t* out = restored.ptr<std::uint8_t>(y);
-            forEachNonZero(mask.ptr<std::uint8_t>(y), mask.cols,
-                           [&](int x) { out[x] = keep[static_cast<std::size_t>(l[x])]; });
-        }
+    for (std::size_t i = 0; i < c.runs.size(); ++i) {
+        const Run& r = c.runs[i];
+        if (keep[static_cast<std::size_t>(c.component[i])] != 0)
+            std::memset(restored.ptr<std::uint8_t>(r.y) + r.x0, 255, static_cast<std::size_t>(r.x1 - r.x0));
     }
     log4cpp::Category& log = logger();
     if (log.isDebugEnabled()) {
         log.debugStream() << "erodeRestore: kernel " << kernelSize << ", " << survivors << " of "
-                          << count - 1 << " components kept";
+                          << c.count << " components kept";
     }
     return restored;
 }
@@ -269,23 +351,15 @@ std::vector<Feature> locateFeatures(const cv::Mat& mask, const cv::Mat& intensit
     }
 
     const cv::Mat roi = mask(window);
-    cv::Mat labels;
-    const int count = cv::connectedComponents(roi, labels, 8, CV_32S);
+    RunComponents c;
+    labelRuns(roi, c);
+    std::vector<Accumulator> acc(static_cast<std::size_t>(c.count));
+    accumulate(c, intensity.empty() ? cv::Mat() : intensity(window), acc);
 
-    std::vector<Accumulator> acc(static_cast<std::size_t>(count));
-    std::vector<int> order;  // labels in raster order of their first pixel
-    order.reserve(static_cast<std::size_t>(count - 1));
-    if (intensity.empty()) {
-        accumulate<NoIntensity>(roi, labels, cv::Mat(), acc, order);
-    } else if (intensity.depth() == CV_8U) {
-        accumulate<BgrIntensity<std::uint8_t>>(roi, labels, intensity(window), acc, order);
-    } else {
-        accumulate<BgrIntensity<std::uint16_t>>(roi, labels, intensity(window), acc, order);
-    }
-
+    // Components are numbered in raster order of their first pixel.
     std::vector<Feature> features;
-    for (const int label : order) {
-        Feature f = makeFeature(acc[static_cast<std::size_t>(label)], window);
+    for (const Accumulator& a : acc) {
+        Feature f = makeFeature(a, window);
         if (type.area.contains(f.area) && type.aspectRatio.contains(f.aspectRatio) &&
             type.areaRatio.contains(f.areaRatio)) {
             features.push_back(f);
@@ -295,7 +369,7 @@ std::vector<Feature> locateFeatures(const cv::Mat& mask, const cv::Mat& intensit
     log4cpp::Category& log = logger();
     if (log.isDebugEnabled()) {
         log.debugStream() << "locateFeatures: type '" << type.name << "', window "
-                          << describe(window) << ": " << count - 1 << " features, "
+                          << describe(window) << ": " << c.count << " features, "
                           << features.size() << " within the geometric limits";
     }
     return features;

@@ -665,6 +665,34 @@ TEST(LocateFeatures, MatchesTheAppendixCReferenceOnRandomMasks) {
     }
 }
 
+TEST(LocateFeatures, MatchesTheAppendixCReferenceOnLargeBlobMasks) {
+    // Wide images with long runs and long empty stretches: the run labelling
+    // skips both eight bytes at a time.
+    cv::RNG rng(99);
+    for (int trial = 0; trial < 8; ++trial) {
+        const cv::Size size(rng.uniform(150, 330), rng.uniform(40, 120));
+        cv::Mat noise(size, CV_32F);
+        rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+        cv::Mat mask = noise < 0.5;
+        cv::blur(mask, mask, {9, 9});
+        mask = mask > 120 + 2 * trial;
+        const cv::Rect window = trial % 2 == 0 ? cv::Rect(0, 0, size.width, size.height)
+                                               : cv::Rect(13, 5, size.width - 30, size.height - 9);
+        SCOPED_TRACE("trial " + std::to_string(trial));
+        const auto expected = referenceLocate(mask, window);
+        const auto actual = locateFeatures(mask, cv::Mat(), keepAll(), window);
+        ASSERT_EQ(actual.size(), expected.size());
+        for (std::size_t i = 0; i < actual.size(); ++i) {
+            SCOPED_TRACE("feature " + std::to_string(i));
+            EXPECT_EQ(actual[i].area, expected[i].area);
+            EXPECT_NEAR(actual[i].centroid.x, expected[i].centroid.x, 1e-9);
+            EXPECT_NEAR(actual[i].centroid.y, expected[i].centroid.y, 1e-9);
+            EXPECT_EQ(actual[i].box, expected[i].box);
+            EXPECT_EQ(actual[i].boundary, expected[i].boundary);
+        }
+    }
+}
+
 /// Textbook morphological reconstruction: geodesic 3x3 dilation of the
 /// eroded mask inside the original until nothing changes.
 cv::Mat referenceErodeRestore(const cv::Mat& mask, int kernelSize) {
