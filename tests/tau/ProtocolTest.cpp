@@ -1,0 +1,228 @@
+// The TAU protocol codec against docs/protocol.md, byte for byte.
+
+#include <avatar/tau/Protocol.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace avatar;
+using namespace avatar::tau;
+using Bytes = std::vector<std::uint8_t>;
+
+namespace {
+
+VisionTargets sampleTargets() {
+    VisionTargets t;
+    t.iteration = 0x0102030405060708ULL;
+    t.acquisition.group = 3;
+    t.acquisition.member = 99998;
+    t.acquisition.left = {"0x00b09d01004a2c1f", 1790000000000000LL};
+    t.acquisition.right = {"right cam", -5};
+    t.visibility = Visibility::Poor;
+    t.visibilityReason = "left: contrast 0.0100 below 0.0200";
+    VisionTarget a;
+    a.type = "sample";
+    a.flags = kTargetStereo | kTargetShapeCorrected;
+    a.positionVisionMm = cv::Point3d(62.0, 83.5, 753.125);
+    a.positionBaseMm = cv::Point3d(-1e-300, std::numeric_limits<double>::max(), -0.0);
+    a.centroidLeftPx = cv::Point2d(798.68, 680.9);
+    a.centroidRightPx = cv::Point2d(638.54, 675.49);
+    a.areaLeftPx = 9154;
+    a.areaRightPx = 9120.5;
+    a.matchError = 0.0123;
+    VisionTarget b;
+    b.type = "arm_marker";
+    b.flags = kTargetLeftOnly | kTargetAtBorder;
+    b.centroidLeftPx = cv::Point2d(3, 4);
+    b.areaLeftPx = 81;
+    t.targets = {a, b};
+    t.timings = {{"demosaic", 5.25}, {"total", 25.5}};
+    return t;
+}
+
+std::string errorOf(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const ProtocolError& e) {
+        return std::string(errorName(e.code())) + " | " + e.what();
+    }
+    return "no error";
+}
+
+}  // namespace
+
+TEST(Protocol, StatusRequestIsTheDocumentedTwelveBytes) {
+    EXPECT_EQ(encodeFrame(static_cast<std::uint16_t>(MessageType::Status), 7, {}),
+              (Bytes{0, 0, 0, 0, 0, 0x09, 0, 0, 0, 0, 0, 7}));
+}
+
+TEST(Protocol, HelloEncodesBigEndianFieldsAndLengthPrefixedStrings) {
+    EXPECT_EQ(encode(Hello{1, "tui"}), (Bytes{0, 1, 0, 0, 0, 3, 't', 'u', 'i'}));
+    const auto frame = encodeFrame(static_cast<std::uint16_t>(MessageType::Hello), 0x01020304, encode(Hello{1, "tui"}));
+    EXPECT_EQ(frame, (Bytes{0, 0, 0, 9, 0, 1, 0, 0, 1, 2, 3, 4, 0, 1, 0, 0, 0, 3, 't', 'u', 'i'}));
+    EXPECT_EQ(encode(ErrorReply{ErrorCode::HelloRequired, "x"}), (Bytes{0, 3, 0, 0, 0, 1, 'x'}));
+    EXPECT_EQ(encode(ConfigApplied{2, 5}), (Bytes{0, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 5}));
+}
+
+TEST(Protocol, DoublesAreIeeeBigEndian) {
+    VisionTargets t;
+    VisionTarget x;
+    x.type = "";
+    x.areaLeftPx = 1.0;  // 0x3FF0000000000000
+    t.targets = {x};
+    const Bytes b = encode(t);
+    // iteration 8, group 4, member 4, two stamps (4+0+8 each), visibility 1, reason 4, count 4,
+    // type 4, flags 4, four absent optionals 4, then areaLeft.
+    const std::size_t at = 8 + 4 + 4 + 12 + 12 + 1 + 4 + 4 + 4 + 4 + 4;
+    EXPECT_EQ(Bytes(b.begin() + at, b.begin() + at + 8), (Bytes{0x3F, 0xF0, 0, 0, 0, 0, 0, 0}));
+}
+
+TEST(Protocol, EveryMessageRoundTrips) {
+    EXPECT_EQ(decodeHello(encode(Hello{1, "controller"})).clientName, "controller");
+    const HelloReply hr = decodeHelloReply(encode(HelloReply{1, "taunet", "replay"}));
+    EXPECT_EQ(hr.serverName, "taunet");
+    EXPECT_EQ(hr.backend, "replay");
+    EXPECT_EQ(decodeTakeSnapshot(encode(TakeSnapshot{1234})).timeoutMs, 1234u);
+    EXPECT_EQ(decodeSendConfig(encode(SendConfig{"<avatar version=\"1\">\n</avatar>"})).xml,
+              "<avatar version=\"1\">\n</avatar>");
+    const ConfigApplied ca = decodeConfigApplied(encode(ConfigApplied{7, 1ULL << 40}));
+    EXPECT_EQ(ca.configVersion, 7u);
+    EXPECT_EQ(ca.configIteration, 1ULL << 40);
+    const ConfigReply cr = decodeConfigReply(encode(ConfigReply{2, 9, "<x/>"}));
+    EXPECT_EQ(cr.xml, "<x/>");
+    EXPECT_EQ(cr.configIteration, 9u);
+    const GetImages gi = decodeGetImages(encode(GetImages{ImageKindCode::Marked, kRightImage, 75}));
+    EXPECT_EQ(gi.kind, ImageKindCode::Marked);
+    EXPECT_EQ(gi.sides, kRightImage);
+    EXPECT_EQ(gi.jpegQuality, 75);
+    ImagesReply ir;
+    ir.iteration = 12;
+    ir.kind = ImageKindCode::Filtered;
+    ir.images = {{0, 1280, 960, {0xFF, 0xD8, 0xFF}}, {1, 1280, 960, {0xFF, 0xD9}}};
+    const ImagesReply ir2 = decodeImagesReply(encode(ir));
+    ASSERT_EQ(ir2.images.size(), 2u);
+    EXPECT_EQ(ir2.images[1].jpeg, (Bytes{0xFF, 0xD9}));
+    EXPECT_EQ(ir2.images[0].width, 1280u);
+    StatusReply s;
+    s.state = 1;
+    s.error = "last: camera left timed out";
+    s.heartbeat = 99;
+    s.iteration = 5;
+    s.configVersion = 2;
+    s.configIteration = 4;
+    s.targetsIteration = 5;
+    s.imagesIteration = 5;
+    s.acquisitionState = 1;
+    s.acquisitionMessage = "left camera 0x00b0 recovering";
+    s.visibility = 1;
+    s.recordBacklog = 3;
+    s.recorded = 100;
+    s.unrecorded = 2;
+    s.recordError = "disk full";
+    s.backend = "firewire";
+    EXPECT_EQ(decodeStatusReply(encode(s)), s);
+    const ErrorReply er = decodeErrorReply(encode(ErrorReply{ErrorCode::ConfigRejected, "t.xml:3: /avatar: bad"}));
+    EXPECT_EQ(er.code, ErrorCode::ConfigRejected);
+    EXPECT_EQ(er.message, "t.xml:3: /avatar: bad");
+    const VisionTargets t = sampleTargets();
+    const VisionTargets back = decodeTargetData(encode(t));
+    EXPECT_EQ(back, t);  // bit for bit, -0.0 and extremes included
+    EXPECT_TRUE(std::signbit(back.targets[0].positionBaseMm->z));
+}
+
+TEST(FrameDecoder, ReassemblesFramesFedOneByteAtATime) {
+    Bytes stream;
+    for (std::uint32_t id = 1; id <= 3; ++id) {
+        const auto f = encodeFrame(static_cast<std::uint16_t>(MessageType::Hello), id, encode(Hello{1, "c" + std::to_string(id)}));
+        stream.insert(stream.end(), f.begin(), f.end());
+    }
+    FrameDecoder d(kMaxRequestPayload);
+    std::vector<Frame> frames;
+    for (std::uint8_t byte : stream) {
+        d.feed(&byte, 1);
+        while (auto f = d.next()) frames.push_back(*f);
+    }
+    ASSERT_EQ(frames.size(), 3u);
+    EXPECT_EQ(frames[2].header.request, 3u);
+    EXPECT_EQ(decodeHello(frames[2].payload).clientName, "c3");
+    EXPECT_EQ(d.buffered(), 0u);
+}
+
+TEST(FrameDecoder, SeveralFramesInOneChunkAndAPartialTail) {
+    Bytes stream = encodeFrame(2, 1, {});
+    const auto second = encodeFrame(3, 2, {});
+    stream.insert(stream.end(), second.begin(), second.end());
+    stream.insert(stream.end(), {0, 0, 0, 5, 0});  // start of a third
+    FrameDecoder d(kMaxRequestPayload);
+    d.feed(stream.data(), stream.size());
+    EXPECT_EQ(d.next()->header.type, 2);
+    EXPECT_EQ(d.next()->header.type, 3);
+    EXPECT_FALSE(d.next().has_value());
+    EXPECT_EQ(d.buffered(), 5u);
+}
+
+TEST(FrameDecoder, RejectsReservedBitsAndOversizeFramesFromTheHeaderAlone) {
+    FrameDecoder bad(kMaxRequestPayload);
+    const Bytes reserved{0, 0, 0, 0, 0, 9, 0, 1, 0, 0, 0, 42};
+    bad.feed(reserved.data(), reserved.size());
+    EXPECT_EQ(errorOf([&] { bad.next(); }),
+              "MALFORMED_FRAME | MALFORMED_FRAME: reserved header field is 1, must be 0 (request 42)");
+    EXPECT_THROW(bad.next(), ProtocolError);  // stays failed
+
+    FrameDecoder big(kMaxRequestPayload);
+    const Bytes header{0x00, 0x10, 0x00, 0x01, 0, 6, 0, 0, 0, 0, 0, 1};  // 1 MiB + 1, no payload sent yet
+    big.feed(header.data(), header.size());
+    EXPECT_EQ(errorOf([&] { big.next(); }),
+              "FRAME_TOO_LARGE | FRAME_TOO_LARGE: SEND_CONFIG payload of 1048577 bytes exceeds the limit of 1048576");
+}
+
+TEST(Decoders, RejectShortLongAndOutOfRangePayloadsByName) {
+    const std::vector<std::pair<std::function<void()>, std::string>> cases = {
+        {[] { decodeHello({0}); }, "HELLO: version: needs 2 byte(s), 1 left"},
+        {[] { decodeHello({0, 1, 0, 0, 0, 5, 'a'}); }, "HELLO: clientName: needs 5 byte(s), 1 left"},
+        {[] { decodeTakeSnapshot({0, 0, 0, 1, 9}); }, "TAKE_SNAPSHOT: 1 unexpected byte(s) after the last field"},
+        {[] { decodeGetImages({3, 1, 90}); }, "GET_IMAGES: kind 3 is not 0 (original), 1 (filtered) or 2 (marked)"},
+        {[] { decodeGetImages({0, 0, 90}); }, "GET_IMAGES: sides 0 is not 1 (left), 2 (right) or 3 (both)"},
+        {[] { decodeGetImages({0, 4, 90}); }, "GET_IMAGES: sides 4 is not 1 (left), 2 (right) or 3 (both)"},
+        {[] { decodeGetImages({0, 3, 0}); }, "GET_IMAGES: jpegQuality 0 is outside 1..100"},
+        {[] { decodeGetImages({0, 3, 101}); }, "GET_IMAGES: jpegQuality 101 is outside 1..100"},
+        {[] { decodeEmpty(MessageType::Status, {1}); }, "STATUS: takes no fields, got 1 byte(s)"},
+        {[] { decodeErrorReply({0, 13, 0, 0, 0, 0}); }, "ERROR: code 13 is not 1..12"},
+    };
+    for (const auto& [f, message] : cases) {
+        SCOPED_TRACE(message);
+        EXPECT_EQ(errorOf(f), "BAD_PAYLOAD | BAD_PAYLOAD: " + message);
+    }
+}
+
+TEST(Decoders, ForgedCountsAndFlagsCannotMakeTheDecoderAllocateOrMisread) {
+    Bytes b = encode(sampleTargets());
+    // The target count sits after iteration 8, group 4, member 4, left stamp
+    // (4 + 18 + 8), right stamp (4 + 9 + 8), visibility 1 and the reason (4 + 34).
+    const std::size_t countAt = 8 + 4 + 4 + 30 + 21 + 1 + 38;
+    ASSERT_EQ(b[countAt + 3], 2);
+    Bytes forged = b;
+    forged[countAt] = 0xFF;  // 4 billion targets
+    EXPECT_EQ(errorOf([&] { decodeTargetData(forged); }).substr(0, 60),
+              "BAD_PAYLOAD | BAD_PAYLOAD: TARGET_DATA: targetCount: count 4");
+    Bytes flag = b;
+    // First optional flag of the first target: after count 4, type (4 + 6), flags 4.
+    flag[countAt + 4 + 10 + 4] = 2;
+    EXPECT_EQ(errorOf([&] { decodeTargetData(flag); }),
+              "BAD_PAYLOAD | BAD_PAYLOAD: TARGET_DATA: positionVision: optional flag 2 is not 0 or 1");
+    for (std::size_t cut = 0; cut < b.size(); cut += 7)
+        EXPECT_THROW(decodeTargetData(Bytes(b.begin(), b.begin() + static_cast<std::ptrdiff_t>(cut))), ProtocolError);
+}
+
+TEST(Protocol, NamesAndConnectionPolicy) {
+    EXPECT_EQ(messageName(0x0009), "STATUS");
+    EXPECT_EQ(messageName(0x8009), "STATUS_REPLY");
+    EXPECT_EQ(messageName(0xFFFF), "ERROR");
+    EXPECT_EQ(messageName(0x0042), "0x0042");
+    EXPECT_TRUE(closesConnection(ErrorCode::FrameTooLarge));
+    EXPECT_TRUE(closesConnection(ErrorCode::HelloRequired));
+    EXPECT_FALSE(closesConnection(ErrorCode::BadPayload));
+    EXPECT_FALSE(closesConnection(ErrorCode::UnknownMessage));
+}
