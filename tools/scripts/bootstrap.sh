@@ -24,6 +24,8 @@ packages=(
   libopencv-dev libdc1394-dev libeigen3-dev libtinyxml2-dev
   libboost-dev libboost-program-options-dev liblog4cpp5-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libaravis-dev aravis-tools libusb-1.0-0-dev
+  clang libclang-rt-14-dev
 )
 
 missing=()
