@@ -12,6 +12,8 @@
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
 
+#include "ImageReduce.h"
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -284,7 +286,7 @@ public:
         ImageWork& work = frame.at(side);
         const double full = fullScale(frame.layout);
         cv::Mat small, channels[3], luma, minChannel, maxChannel;
-        cv::resize(work.image, small, cv::Size(), 0.25, 0.25, cv::INTER_AREA);
+        detail::downsampleArea4(work.image, small);  // = cv::resize INTER_AREA, bit for bit, serial
         small.convertTo(small, CV_32F, 1.0 / full);
         cv::split(small, channels);
         luma = 0.114f * channels[0] + 0.587f * channels[1] + 0.299f * channels[2];
@@ -294,9 +296,7 @@ public:
         minChannel = cv::min(cv::min(channels[0], channels[1]), channels[2]);
         work.haze = cv::mean(minChannel)[0];
         // Saturation is judged on the full image: downsampling averages it away.
-        cv::Mat bgr = work.image.reshape(1);
-        cv::Mat saturated = bgr >= full;
-        work.saturatedFraction = static_cast<double>(cv::countNonZero(saturated)) /
+        work.saturatedFraction = static_cast<double>(detail::countSamplesAtLeast(work.image, full)) /
                                  static_cast<double>(work.image.total());
     }
     void processPair(AnalysisFrame& frame) override {

@@ -1,0 +1,25 @@
+#pragma once
+/// @file ImageReduce.h
+/// Internal to avatar::analyze: serial whole-image reductions used by the
+/// visibility stage, written to give exactly what the OpenCV calls they
+/// replace give, at a fraction of the cost (docs/benchmarks.md).
+
+#include <opencv2/core/mat.hpp>
+
+#include <cstdint>
+
+namespace avatar::detail {
+
+/// The same as cv::resize(image, out, {}, 0.25, 0.25, cv::INTER_AREA) for an
+/// 8- or 16-bit image of 1..4 channels, bit for bit: when both sides are
+/// multiples of 4 each output sample is the mean of its 4x4 block rounded to
+/// nearest, ties to even (OpenCV's fast area path); otherwise cv::resize is
+/// called. @p out is reused when it has the right size and type.
+void downsampleArea4(const cv::Mat& image, cv::Mat& out);
+
+/// The number of samples (every channel of every pixel) >= @p threshold of an
+/// 8- or 16-bit image: cv::countNonZero(image.reshape(1) >= threshold)
+/// without the temporary mask.
+std::int64_t countSamplesAtLeast(const cv::Mat& image, double threshold);
+
+}  // namespace avatar::detail
