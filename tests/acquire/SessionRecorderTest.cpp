@@ -1,0 +1,294 @@
+// SessionRecorder: a round trip through the real SessionLogWriter, a slow sink
+// with a small queue (pairs dropped, counted and logged, never blocking the
+// caller), a sink that runs out of space (failures counted, recording goes on),
+// and no configuration lost with a dropped pair.
+#include "SessionLogTestUtil.h"
+#include "TempDir.h"
+#include "TestUtil.h"
+
+#include <avatar/acquire/SessionLog.h>
+#include <avatar/acquire/SessionRecorder.h>
+#include <avatar/common/Error.h>
+#include <avatar/common/Logging.h>
+
+#include <gtest/gtest.h>
+#include <log4cpp/Category.hh>
+#include <log4cpp/StringQueueAppender.hh>
+
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <thread>
+#include <vector>
+
+using namespace avatar;
+using namespace avatar::test;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+/// The real sink, throttled: every writePair() takes at least @p delay, like a
+/// slow or busy disk.
+class ThrottledSink final : public SessionSink {
+public:
+    ThrottledSink(fs::path dir, std::chrono::milliseconds delay) : real_(std::move(dir)), delay_(delay) {}
+    PairFiles writePair(const StereoImagePair& pair) override {
+        std::this_thread::sleep_for(delay_);
+        return real_.writePair(pair);
+    }
+    void append(const SessionRecord& record) override { real_.append(record); }
+    std::string describe() const override { return real_.describe(); }
+
+private:
+    SessionLogSink real_;
+    std::chrono::milliseconds delay_;
+};
+
+/// The real sink on a disk with a quota: an image file that would take the
+/// bytes written beyond the quota fails as a full disk does, naming the file.
+class QuotaSink final : public SessionSink {
+public:
+    QuotaSink(fs::path dir, std::size_t quotaBytes, std::atomic<std::size_t>& quota)
+        : dir_(dir), real_(std::move(dir)), quota_(quota) {
+        quota_ = quotaBytes;
+    }
+    PairFiles writePair(const StereoImagePair& pair) override {
+        const std::size_t bytes = 2 * pair.left().total() * pair.left().elemSize();
+        if (used_ + bytes > quota_) {
+            const RawImageName name{Side::Left, pair.id().group, pair.id().member,
+                                    geometryOf(pair.left(), pair.layout(), hostByteOrder())};
+            throw IoError("cannot write image file " + (dir_ / imageFileName(name, Compression::None)).string() +
+                          ": No space left on device");
+        }
+        PairFiles files = real_.writePair(pair);
+        used_ += bytes;
+        return files;
+    }
+    void append(const SessionRecord& record) override { real_.append(record); }
+    std::string describe() const override { return real_.describe(); }
+
+private:
+    fs::path dir_;
+    SessionLogSink real_;
+    std::atomic<std::size_t>& quota_;
+    std::size_t used_{0};
+};
+
+/// Captures what the acquire module logs while it lives.
+class LogCapture {
+public:
+    LogCapture() : category_(logging::category("acquire")), appender_("capture") {
+        category_.addAppender(appender_);
+        previous_ = category_.getPriority();
+        category_.setPriority(log4cpp::Priority::DEBUG);
+    }
+    ~LogCapture() {
+        category_.removeAppender(&appender_);
+        category_.setPriority(previous_);
+    }
+    LogCapture(const LogCapture&) = delete;
+    LogCapture& operator=(const LogCapture&) = delete;
+    std::vector<std::string> messages() {
+        std::vector<std::string> out;
+        auto& q = appender_.getQueue();
+        while (!q.empty()) {
+            out.push_back(q.front());
+            q.pop();
+        }
+        return out;
+    }
+
+private:
+    log4cpp::Category& category_;
+    log4cpp::StringQueueAppender appender_;
+    log4cpp::Priority::Value previous_;
+};
+
+StereoImagePair pairOf(std::uint32_t group, std::uint32_t member, std::uint64_t seed) {
+    return bayerPair(acquisition(group, member, 1700000000000000 + static_cast<std::int64_t>(seed)), seed);
+}
+
+}  // namespace
+
+TEST(SessionRecorder, RecordsEveryPairConfigurationAndResult) {
+    TempDir dir;
+    std::vector<StereoImagePair> pairs;
+    {
+        SessionRecorder recorder(std::make_unique<SessionLogSink>(dir / "s"));
+        for (std::uint32_t i = 1; i <= 5; ++i) {
+            const std::uint32_t version = i < 4 ? 1 : 2;
+            pairs.push_back(pairOf(version, i, i));
+            std::optional<std::string> xml;
+            if (i == 1) xml = kConfigXmlV1;
+            if (i == 4) xml = kConfigXmlV2;
+            std::optional<VisionTargets> result;
+            if (i != 2) result = fullResult(i, pairs.back().id());
+            EXPECT_TRUE(recorder.record(pairs.back(), i, version, xml, result));
+        }
+        recorder.flush();
+        const SessionRecorderStatus s = recorder.status();
+        EXPECT_EQ(s.backlog, 0u);
+        EXPECT_EQ(s.recorded, 5u);
+        EXPECT_EQ(s.unrecorded(), 0u);
+        EXPECT_TRUE(s.lastError.empty());
+    }
+    const SessionLogReader reader(dir / "s");
+    EXPECT_TRUE(reader.errors().empty());
+    const auto records = reader.records();
+    ASSERT_EQ(records.size(), 5u);
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        SCOPED_TRACE(i);
+        EXPECT_EQ(records[i].iteration, i + 1);
+        EXPECT_EQ(records[i].acquisition, pairs[i].id());
+        EXPECT_EQ(records[i].configVersion, i < 3 ? 1u : 2u);
+        EXPECT_EQ(records[i].configXml.has_value(), i == 0 || i == 3);
+        EXPECT_EQ(records[i].result.has_value(), i != 1);
+        if (records[i].result) {
+            EXPECT_EQ(*records[i].result, fullResult(i + 1, pairs[i].id()));
+        }
+        const StereoImagePair loaded = reader.loadPair(records[i]);
+        EXPECT_TRUE(sameImage(loaded.left(), pairs[i].left()));
+        EXPECT_TRUE(sameImage(loaded.right(), pairs[i].right()));
+    }
+    EXPECT_EQ(records[0].configXml, std::optional<std::string>(kConfigXmlV1));
+    EXPECT_EQ(records[3].configXml, std::optional<std::string>(kConfigXmlV2));
+}
+
+TEST(SessionRecorder, APairThatViewsCameraMemoryIsCopiedBeforeRecordReturns) {
+    TempDir dir;
+    const StereoImagePair original = pairOf(1, 0, 3);
+    cv::Mat left = original.left().clone();
+    cv::Mat right = original.right().clone();
+    {
+        SessionRecorder recorder(std::make_unique<ThrottledSink>(dir / "s", std::chrono::milliseconds(50)));
+        const StereoImagePair view = StereoImagePair::view(left.data, right.data, left.size(), left.type(),
+                                                           original.layout(), 0, original.id());
+        ASSERT_FALSE(view.ownsPixels());
+        EXPECT_TRUE(recorder.record(view, 1, 1, std::string(kConfigXmlV1), std::nullopt));
+        left.setTo(0);  // the camera reuses its buffer at once
+        right.setTo(0);
+    }
+    const SessionLogReader reader(dir / "s");
+    const StereoImagePair loaded = reader.loadPair(reader.records().at(0));
+    EXPECT_TRUE(sameImage(loaded.left(), original.left()));
+    EXPECT_TRUE(sameImage(loaded.right(), original.right()));
+}
+
+TEST(SessionRecorder, SlowSinkWithASmallQueueDropsCountsAndSaysSoWithoutBlocking) {
+    TempDir dir;
+    LogCapture log;
+    SessionRecorderOptions options;
+    options.queueCapacity = 2;
+    SessionRecorder recorder(std::make_unique<ThrottledSink>(dir / "s", std::chrono::milliseconds(150)), options);
+    std::vector<std::uint64_t> accepted;
+    const auto start = Clock::now();
+    for (std::uint32_t i = 1; i <= 12; ++i) {
+        std::optional<std::string> xml;
+        if (i == 1) xml = kConfigXmlV1;
+        if (i == 6) xml = kConfigXmlV2;  // applied by a pair that is dropped
+        if (recorder.record(pairOf(i < 6 ? 1 : 2, i, i), i, i < 6 ? 1 : 2, xml, std::nullopt)) accepted.push_back(i);
+    }
+    const auto elapsed = Clock::now() - start;
+    // Twelve record() calls against a sink that needs 150 ms per pair: a
+    // blocking recorder would take over a second.
+    EXPECT_LT(elapsed, std::chrono::milliseconds(120));
+
+    SessionRecorderStatus s = recorder.status();
+    // One pair may already be with the sink, two wait in the queue.
+    ASSERT_GE(accepted.size(), 2u);
+    ASSERT_LE(accepted.size(), 3u);
+    EXPECT_EQ(accepted[0], 1u);
+    EXPECT_EQ(s.dropped, 12 - accepted.size());
+    EXPECT_EQ(s.unrecorded(), s.dropped);
+    EXPECT_LE(s.backlog, 2u);
+    EXPECT_EQ(s.lastError, "iteration 12 not recorded: the queue of 2 pairs is full (" + (dir / "s").string() +
+                               " is slower than the acquisition)");
+
+    // The recorder said so for each dropped pair.
+    std::size_t warnings = 0;
+    for (const std::string& m : log.messages())
+        if (m.find("WARN") != std::string::npos && m.find("not recorded: the queue of 2 pairs is full") != std::string::npos)
+            ++warnings;
+    EXPECT_EQ(warnings, s.dropped);
+
+    // Once the queue has drained, the next pair is recorded, carrying the
+    // configuration its dropped predecessor applied.
+    recorder.flush();
+    EXPECT_TRUE(recorder.record(pairOf(2, 13, 13), 13, 2, std::nullopt, std::nullopt));
+    recorder.flush();
+    s = recorder.status();
+    EXPECT_EQ(s.recorded, accepted.size() + 1);
+    EXPECT_EQ(s.backlog, 0u);
+
+    const SessionLogReader reader(dir / "s");
+    EXPECT_TRUE(reader.errors().empty());
+    const auto records = reader.records();
+    ASSERT_EQ(records.size(), accepted.size() + 1);
+    for (std::size_t i = 0; i < accepted.size(); ++i) EXPECT_EQ(records[i].iteration, accepted[i]);
+    EXPECT_EQ(records.back().iteration, 13u);
+    EXPECT_EQ(records.back().configVersion, 2u);
+    EXPECT_EQ(records.back().configXml, std::optional<std::string>(kConfigXmlV2));
+}
+
+TEST(SessionRecorder, FullDiskIsCountedWithTheFileAndRecordingGoesOn) {
+    TempDir dir;
+    std::atomic<std::size_t> quota{0};
+    const std::size_t pairBytes = 2 * 6 * 8 * 2;
+    SessionRecorder recorder(std::make_unique<QuotaSink>(dir / "s", 2 * pairBytes, quota));
+    for (std::uint32_t i = 1; i <= 4; ++i)
+        EXPECT_TRUE(recorder.record(pairOf(1, i, i), i, 1, i == 1 ? std::optional<std::string>(kConfigXmlV1)
+                                                                  : std::nullopt,
+                                    std::nullopt));
+    recorder.flush();
+    SessionRecorderStatus s = recorder.status();
+    EXPECT_EQ(s.recorded, 2u);
+    EXPECT_EQ(s.failed, 2u);
+    EXPECT_EQ(s.dropped, 0u);
+    EXPECT_EQ(s.unrecorded(), 2u);
+    EXPECT_EQ(s.lastError, "iteration 4 not recorded in " + (dir / "s").string() + ": cannot write image file " +
+                               (dir / "s" / "L_00001_00004_8x6_12b_1c_GB_le.raw").string() +
+                               ": No space left on device");
+
+    quota = 10 * pairBytes;  // space freed
+    EXPECT_TRUE(recorder.record(pairOf(1, 5, 5), 5, 1, std::nullopt, std::nullopt));
+    recorder.flush();
+    s = recorder.status();
+    EXPECT_EQ(s.recorded, 3u);
+    EXPECT_EQ(s.failed, 2u);
+
+    const SessionLogReader reader(dir / "s");
+    const auto records = reader.records();
+    ASSERT_EQ(records.size(), 3u);
+    EXPECT_EQ(records[0].iteration, 1u);
+    EXPECT_EQ(records[1].iteration, 2u);
+    EXPECT_EQ(records[2].iteration, 5u);
+}
+
+TEST(SessionRecorder, ARecordTheWriterRefusesIsCountedWithItsReason) {
+    TempDir dir;
+    SessionRecorder recorder(std::make_unique<SessionLogSink>(dir / "s"));
+    EXPECT_TRUE(recorder.record(pairOf(1, 0, 1), 5, 1, std::string(kConfigXmlV1), std::nullopt));
+    EXPECT_TRUE(recorder.record(pairOf(1, 1, 2), 5, 1, std::nullopt, std::nullopt));  // iteration repeated
+    // A version nobody gave the XML of.
+    EXPECT_TRUE(recorder.record(pairOf(2, 0, 3), 6, 7, std::nullopt, std::nullopt));
+    EXPECT_TRUE(recorder.record(pairOf(1, 2, 4), 8, 1, std::nullopt, std::nullopt));
+    recorder.flush();
+    const SessionRecorderStatus s = recorder.status();
+    EXPECT_EQ(s.recorded, 2u);
+    EXPECT_EQ(s.failed, 2u);
+    EXPECT_EQ(s.lastError.rfind("iteration 6 not recorded in " + (dir / "s").string() + ": ", 0), 0u) << s.lastError;
+    EXPECT_NE(s.lastError.find("configXml"), std::string::npos) << s.lastError;
+}
+
+TEST(SessionRecorder, InvalidOptionsAndNoSinkAreRefused) {
+    TempDir dir;
+    SessionRecorderOptions options;
+    options.queueCapacity = 0;
+    EXPECT_EQ(messageOf<InvalidArgument>([&] { SessionRecorder r(std::make_unique<SessionLogSink>(dir / "a"), options); }),
+              "SessionRecorderOptions.queueCapacity 0 outside 1..1024");
+    EXPECT_EQ(messageOf<InvalidArgument>([&] { SessionRecorder r(nullptr); }), "SessionRecorder: no sink");
+    // A session is never recorded over.
+    { SessionLogSink first(dir / "b"); }
+    EXPECT_THROW(SessionLogSink second(dir / "b"), IoError);
+}
