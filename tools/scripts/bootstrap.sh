@@ -26,6 +26,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev
   clang libclang-rt-14-dev
+  tmux
 )
 
 missing=()
