@@ -1,9 +1,57 @@
 #include <avatar/common/StereoImagePair.h>
 #include <avatar/config/ConfigXml.h>
+#include <avatar/tau/TauUnit.h>
 
 #include <opencv2/core.hpp>
 
 #include <iostream>
+#include <string>
+
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+namespace {
+
+// A loopback port on which nothing listens: bound (so no one else takes it), not listening.
+int closedPort(std::uint16_t& port) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+    return fd;
+}
+
+// A manipulator controller's first step: a TAUUnit client. Connecting to a port
+// where no TAUNet listens is the documented ConnectionError naming host:port.
+bool tauUnitReportsClosedPort() {
+    std::uint16_t port = 0;
+    const int fd = closedPort(port);
+    avatar::tau::TauUnitOptions options;
+    options.port = port;
+    options.clientName = "downstream";
+    avatar::tau::TauUnit unit(options);
+    bool ok = false;
+    try {
+        unit.connect();
+    } catch (const avatar::tau::TimeoutError&) {
+        std::cout << "tauunit: unexpected timeout\n";
+    } catch (const avatar::tau::ConnectionError& e) {
+        const std::string endpoint = "127.0.0.1:" + std::to_string(port);
+        ok = e.endpoint() == endpoint && e.request() == "HELLO" &&
+             std::string(e.what()).find(endpoint) != std::string::npos;
+        std::cout << "tauunit: closed port gives ConnectionError for " << e.request()
+                  << (ok ? " naming the endpoint" : std::string(" without the endpoint: ") + e.what()) << "\n";
+    }
+    ::close(fd);
+    return ok && unit.timings().size() == 1 && !unit.connected();
+}
+
+}  // namespace
 
 int main() {
     cv::Mat l(2, 4, CV_16UC1, cv::Scalar(1)), r(2, 4, CV_16UC1, cv::Scalar(2));
@@ -17,5 +65,6 @@ int main() {
     config.targets.targets.back().name = "sample";
     const auto back = avatar::readConfigString(avatar::writeConfigString(config), "downstream");
     std::cout << "config round trip: " << (back == config ? "identical" : "different") << "\n";
-    return back == config ? 0 : 1;
+    const bool tauOk = tauUnitReportsClosedPort();
+    return back == config && tauOk ? 0 : 1;
 }
