@@ -1,0 +1,534 @@
+// The full analysis chain (thesis 4.2.3) on 16-bit Bayer stereo pairs, with
+// lighting correction, the two target types of data/config/scorpion.xml and
+// erode/restore on, against a straightforward OpenCV baseline in the same
+// binary. Run with
+//   bench_pipeline --benchmark_repetitions=9 --benchmark_report_aggregates_only=true
+// and see docs/benchmarks.md for the tables and how to read them.
+//
+// Inputs (made once per process, on first use):
+//   lab_1280x960       the lab scene (data/scenes/lab.xml) rendered by
+//                      avatar::render with the Scorpion configuration;
+//   synthetic_WxH/n:N  N discs per image (alternately of the two target
+//                      colours) on a noisy sand-coloured background, the
+//                      right image shifted by a fixed disparity, at
+//                      640x480, 1280x960 and 2448x2048.
+// Both are mosaicked and then divided by the lighting factors of the
+// configured strobe pattern, so that the lighting stage has real work and
+// its correction gives the scene's colours back.
+//
+// Benchmarks:
+//   Pipeline/<input>          AnalyzeStereoImagePair::analyze (two threads);
+//                             counters: median per stage (ms, from
+//                             VisionTargets::timings), total, and what was found.
+//   PipelineSerial/<input>    the same with setParallel(false) (one thread).
+//   Baseline/<input>          plain OpenCV calls, one image after the other.
+//   PipelineVsBaseline/<input> both, interleaved per iteration: the time is the
+//                             chain's; counters give the baseline's median and
+//                             the ratio baseline / chain measured under the same load.
+//   FirstFrame/<input>        a new AnalyzeStereoImagePair and its first
+//                             analysis (lighting factors built, buffers faulted
+//                             in): what a short run such as avatar-analyze on a
+//                             three-pair session mostly sees.
+// All are wall-clock (UseRealTime / manual time): the chain is threaded.
+// "faults" is minor page faults per iteration (fresh buffers fault per 4 KiB).
+//
+// --opencv_threads=N (first argument) calls cv::setNumThreads(N) before
+// running, for comparing with OpenCV's own thread pool limited; the chain
+// itself never changes that process-global setting.
+
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/analyze/LightingCorrection.h>
+#include <avatar/analyze/StereoCoordinateCalculator.h>
+#include <avatar/config/ConfigXml.h>
+#include <avatar/render/Renderer.h>
+#include <avatar/render/Scene.h>
+
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace avatar {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// Minor page faults of the process so far (a fresh buffer faults once per 4 KiB page).
+long minorFaults() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return usage.ru_minflt;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    if (v.size() % 2 == 1) return *mid;
+    return 0.5 * (*mid + *std::max_element(v.begin(), mid));
+}
+
+// ---------------------------------------------------------------------------
+// Configuration and inputs
+// ---------------------------------------------------------------------------
+
+/// A strobe pattern like data/config/seabed.xml's (milder, so that the corners
+/// of a 2448x2048 image keep some signal) plus frame-average gains.
+LightingConfig benchLighting(cv::Size size) {
+    LightingConfig l;
+    l.frameAverageEnabled = true;
+    l.gainsRgb = {1.1, 1.0, 0.9};
+    l.patternEnabled = true;
+    l.patternCentrePx = {size.width / 2.0, size.height / 2.0};
+    l.red = {1.0, 0.0008};
+    l.green = {1.0, 0.0006};
+    l.blue = {1.0, 0.0005};
+    return l;
+}
+
+/// data/config/scorpion.xml at @p size with lighting correction on.
+AvatarConfig benchConfig(cv::Size size) {
+    AvatarConfig c = readConfigFile(std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml");
+    c.camera.width = size.width;
+    c.camera.height = size.height;
+    c.lighting = benchLighting(size);
+    return c;
+}
+
+/// Channel (0 = B, 1 = G, 2 = R) of mosaic site (x, y) for BayerPattern::BG
+/// (first row B G B G ..., second row G R G R ...).
+int siteChannel(int x, int y) { return (x % 2 == 0 && y % 2 == 0) ? 0 : (x % 2 == 1 && y % 2 == 1) ? 2 : 1; }
+
+/// Divides every site of a 16-bit BG mosaic by its channel's lighting
+/// factor, so that the lighting correction of the chain undoes it.
+void uncorrect(cv::Mat& mosaic, const cv::Mat& factors) {
+    for (int y = 0; y < mosaic.rows; ++y) {
+        auto* row = mosaic.ptr<std::uint16_t>(y);
+        const auto* f = factors.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < mosaic.cols; ++x) {
+            const float v = static_cast<float>(row[x]) / std::max(f[x][siteChannel(x, y)], 1e-6f);
+            row[x] = static_cast<std::uint16_t>(std::min(v + 0.5f, 65535.0f));
+        }
+    }
+}
+
+/// The BG mosaic of a 16-bit BGR image.
+cv::Mat mosaicOf(const cv::Mat& bgr) {
+    cv::Mat mosaic(bgr.size(), CV_16UC1);
+    for (int y = 0; y < bgr.rows; ++y) {
+        const auto* in = bgr.ptr<cv::Vec<std::uint16_t, 3>>(y);
+        auto* out = mosaic.ptr<std::uint16_t>(y);
+        for (int x = 0; x < bgr.cols; ++x) out[x] = in[x][siteChannel(x, y)];
+    }
+    return mosaic;
+}
+
+struct Input {
+    AvatarConfig config;
+    StereoImagePair pair;
+    int expectedStereo{0};  ///< stereo targets the chain must find (checked before timing)
+    int discsPerImage{0};   ///< synthetic inputs: features per image
+};
+
+constexpr int kLabWidth = 1280;
+constexpr int kLabHeight = 960;
+
+Input makeLab() {
+    Input in;
+    in.config = benchConfig({kLabWidth, kLabHeight});
+    const render::Scene scene = render::readSceneFile(std::string(AVATAR_DATA_DIR) + "/scenes/lab.xml");
+    render::RenderOptions options;
+    options.sensor = render::sensorFormatFrom(in.config.camera);
+    render::RenderResult r = render::render(scene, in.config.stereo, options);
+    LightingCorrector corrector(in.config.lighting);
+    corrector.prepare(r.pair.size());
+    cv::Mat left = r.pair.left().clone(), right = r.pair.right().clone();
+    uncorrect(left, corrector.factors());
+    uncorrect(right, corrector.factors());
+    in.pair = StereoImagePair(left, right, r.pair.layout(), r.pair.id());
+    in.expectedStereo = 2;  // the duck and the arm marker
+    return in;
+}
+
+/// True scene colours (B, G, R) that pass scorpion.xml's filters.
+const cv::Scalar kSampleBgr(2500, 16000, 20000);  // R/G 1.25, R/B 8, B/G 0.16
+const cv::Scalar kMarkerBgr(6000, 12000, 23000);  // R/G 1.92, R/B 3.8, B/G 0.5
+
+cv::Mat syntheticImage(cv::Size size, const std::vector<cv::Point>& centres, int radius, std::uint64_t seed) {
+    cv::Mat bgr(size, CV_16UC3);
+    cv::RNG rng(seed);
+    rng.fill(bgr, cv::RNG::NORMAL, cv::Scalar(9000, 11000, 12000), cv::Scalar::all(600));
+    for (std::size_t i = 0; i < centres.size(); ++i)
+        cv::circle(bgr, centres[i], radius, i % 2 == 0 ? kSampleBgr : kMarkerBgr, cv::FILLED, cv::LINE_8);
+    return bgr;
+}
+
+/// @p n discs on a grid, the right image's shifted left by the disparity.
+Input makeSynthetic(cv::Size size, int n) {
+    Input in;
+    in.config = benchConfig(size);
+    // Small discs: 1,000 of them fit a 640x480 image only at about 75 px each,
+    // below scorpion.xml's minimum areas (150, 80).
+    for (TargetType& t : in.config.targets.targets) t.area.min = 20.0;
+    const int disparity = std::max(20, size.width / 32);  // inside the match box (15..310 px)
+    const int margin = 8;
+    const cv::Rect region(disparity + margin, margin, size.width - disparity - 2 * margin, size.height - 2 * margin);
+    const int cols = std::max(1, static_cast<int>(std::ceil(std::sqrt(n * static_cast<double>(region.width) / region.height))));
+    const int rows = (n + cols - 1) / cols;
+    const double pitchX = static_cast<double>(region.width) / cols;
+    const double pitchY = static_cast<double>(region.height) / rows;
+    const int radius = std::min(60, static_cast<int>(0.3 * std::min(pitchX, pitchY)));
+    std::vector<cv::Point> left, right;
+    for (int i = 0; i < n; ++i) {
+        const cv::Point c(region.x + static_cast<int>((i % cols + 0.5) * pitchX),
+                          region.y + static_cast<int>((i / cols + 0.5) * pitchY));
+        left.push_back(c);
+        right.push_back({c.x - disparity, c.y});
+    }
+    LightingCorrector corrector(in.config.lighting);
+    corrector.prepare(size);
+    cv::Mat l = mosaicOf(syntheticImage(size, left, radius, 1));
+    cv::Mat r = mosaicOf(syntheticImage(size, right, radius, 2));
+    uncorrect(l, corrector.factors());
+    uncorrect(r, corrector.factors());
+    in.pair = StereoImagePair(l, r, {PixelFormat::Bayer, BayerPattern::BG, 16});
+    in.discsPerImage = n;
+    return in;
+}
+
+/// Inputs by name, made on first use (so a --benchmark_filter renders only what it needs).
+const Input& input(const std::string& name) {
+    static std::map<std::string, std::unique_ptr<Input>> cache;
+    auto& slot = cache[name];
+    if (!slot) {
+        if (name == "lab_1280x960") {
+            slot = std::make_unique<Input>(makeLab());
+        } else {
+            int w = 0, h = 0, n = 0;
+            if (std::sscanf(name.c_str(), "synthetic_%dx%d/n:%d", &w, &h, &n) != 3)
+                throw InvalidArgument("bench_pipeline: unknown input " + name);
+            slot = std::make_unique<Input>(makeSynthetic({w, h}, n));
+        }
+    }
+    return *slot;
+}
+
+// ---------------------------------------------------------------------------
+// Result summaries and checks
+// ---------------------------------------------------------------------------
+
+struct Found {
+    int stereo{0};
+    int featuresLeft{0};
+};
+
+Found found(const AnalyzeStereoImagePair& chain, const VisionTargets& result) {
+    Found f;
+    for (const VisionTarget& t : result.targets) f.stereo += (t.flags & kTargetStereo) != 0;
+    for (const auto& list : chain.lastFrame().at(Side::Left).features) f.featuresLeft += static_cast<int>(list.size());
+    return f;
+}
+
+/// Empty when the chain found what the input holds, else what is wrong.
+std::string check(const Input& in, const Found& f) {
+    // Allow 1%: at 640x480 a disc of 1,000 is only about 9 px across, and the
+    // demosaic's colour fringes can push one at a dim corner out of a filter.
+    if (in.discsPerImage > 0 && (f.featuresLeft > in.discsPerImage || 100 * f.featuresLeft < 99 * in.discsPerImage))
+        return "found " + std::to_string(f.featuresLeft) + " features in the left image, expected " +
+               std::to_string(in.discsPerImage);
+    if (in.discsPerImage == 0 && f.stereo != in.expectedStereo)
+        return "found " + std::to_string(f.stereo) + " stereo targets, expected " + std::to_string(in.expectedStereo);
+    return {};
+}
+
+/// Per-stage timings of the iterations of one run, reported as medians.
+class StageTimes {
+public:
+    void add(const VisionTargets& result) {
+        for (const StageTiming& t : result.timings) {
+            auto it = std::find_if(stages_.begin(), stages_.end(), [&](const auto& s) { return s.first == t.stage; });
+            if (it == stages_.end()) it = stages_.insert(stages_.end(), {t.stage, {}});
+            it->second.push_back(t.milliseconds);
+        }
+    }
+    void report(benchmark::State& state) const {
+        for (const auto& [stage, times] : stages_) state.counters[stage + "_ms"] = median(times);
+    }
+    double medianOf(const std::string& stage) const {
+        for (const auto& [name, times] : stages_)
+            if (name == stage) return median(times);
+        return 0.0;
+    }
+
+private:
+    std::vector<std::pair<std::string, std::vector<double>>> stages_;
+};
+
+// ---------------------------------------------------------------------------
+// The straightforward OpenCV baseline: per image, one after the other,
+// cvtColor demosaic, cv::multiply lighting, float ratios with cv::divide,
+// cv::inRange per ratio and type, cv::erode + cv::connectedComponentsWithStats
+// (no restore: the eroded features are taken as they are, which is cheaper
+// than the chain's feature-AND restore), an area filter, the visibility
+// measures on the full image; then all-pairs matching in the epipolar box and
+// triangulation of the centroids.
+// ---------------------------------------------------------------------------
+
+struct BaselineImage {
+    cv::Mat bgr, bgrF, rg, rb, bg, mask, m, eroded, labels, stats, centroids, gray, dark;
+    std::vector<cv::Mat> ch;
+    std::vector<std::vector<cv::Point2d>> points;  // per type
+    std::vector<std::vector<int>> areas;
+};
+
+class Baseline {
+public:
+    explicit Baseline(const AvatarConfig& config)
+        : config_(config), calculator_(config.stereo), kernel_(cv::getStructuringElement(cv::MORPH_RECT, {3, 3})) {
+        LightingCorrector corrector(config.lighting);
+        corrector.prepare({config.camera.width, config.camera.height});
+        factors_ = corrector.factors().clone();
+    }
+
+    /// Returns the number of stereo targets; @p times gets the step timings.
+    int run(const StereoImagePair& pair, StageTimes& times) {
+        VisionTargets t;
+        const auto start = Clock::now();
+        auto t0 = Clock::now();
+        for (int i = 0; i < 2; ++i) cv::cvtColor(pair.image(i == 0 ? Side::Left : Side::Right), image_[i].bgr, cv::COLOR_BayerRG2BGR);
+        t.timings.push_back({"demosaic", msSince(t0)});
+        t0 = Clock::now();
+        for (auto& im : image_) cv::multiply(im.bgr, factors_, im.bgr, 1.0, CV_16UC3);
+        t.timings.push_back({"lighting", msSince(t0)});
+        t0 = Clock::now();
+        for (auto& im : image_) filter(im);
+        t.timings.push_back({"color_filter+erode+locate", msSince(t0)});
+        t0 = Clock::now();
+        for (auto& im : image_) visibility(im);
+        t.timings.push_back({"visibility", msSince(t0)});
+        t0 = Clock::now();
+        const int stereo = matchAndTriangulate();
+        t.timings.push_back({"match+triangulate", msSince(t0)});
+        t.timings.push_back({"total", msSince(start)});
+        times.add(t);
+        return stereo;
+    }
+
+private:
+    void filter(BaselineImage& im) {
+        const auto& types = config_.targets.targets;
+        im.bgr.convertTo(im.bgrF, CV_32F);
+        cv::split(im.bgrF, im.ch);
+        cv::divide(im.ch[2], im.ch[1], im.rg);
+        cv::divide(im.ch[2], im.ch[0], im.rb);
+        cv::divide(im.ch[0], im.ch[1], im.bg);
+        im.points.assign(types.size(), {});
+        im.areas.assign(types.size(), {});
+        for (std::size_t k = 0; k < types.size(); ++k) {
+            const TargetType& type = types[k];
+            cv::inRange(im.rg, type.redGreen.min, type.redGreen.max, im.mask);
+            cv::inRange(im.rb, type.redBlue.min, type.redBlue.max, im.m);
+            cv::bitwise_and(im.mask, im.m, im.mask);
+            cv::inRange(im.bg, type.blueGreen.min, type.blueGreen.max, im.m);
+            cv::bitwise_and(im.mask, im.m, im.mask);
+            if (type.erodeRestore) {
+                cv::erode(im.mask, im.eroded, kernel_);
+            } else {
+                im.eroded = im.mask;
+            }
+            const int n = cv::connectedComponentsWithStats(im.eroded, im.labels, im.stats, im.centroids, 8, CV_32S);
+            for (int i = 1; i < n; ++i) {
+                const int area = im.stats.at<int>(i, cv::CC_STAT_AREA);
+                if (!type.area.contains(area)) continue;
+                im.points[k].push_back({im.centroids.at<double>(i, 0), im.centroids.at<double>(i, 1)});
+                im.areas[k].push_back(area);
+            }
+        }
+    }
+
+    void visibility(BaselineImage& im) {
+        const double full = 65535.0;
+        cv::Scalar mean, stddev;
+        cv::cvtColor(im.bgrF, im.gray, cv::COLOR_BGR2GRAY);
+        cv::meanStdDev(im.gray, mean, stddev);
+        cv::min(cv::min(im.ch[0], im.ch[1]), im.ch[2], im.dark);
+        contrast_ += stddev[0] / full + cv::mean(im.dark)[0] / full +
+                     cv::countNonZero(im.bgr.reshape(1) >= full);
+    }
+
+    int matchAndTriangulate() {
+        const MatchConfig& mc = config_.match;
+        int stereo = 0;
+        for (std::size_t k = 0; k < image_[0].points.size(); ++k) {
+            const auto& L = image_[0].points[k];
+            const auto& R = image_[1].points[k];
+            std::vector<bool> used(R.size());
+            for (std::size_t i = 0; i < L.size(); ++i) {
+                int best = -1;
+                double bestDy = 1e300;
+                for (std::size_t j = 0; j < R.size(); ++j) {
+                    const double dx = L[i].x - R[j].x, dy = R[j].y - L[i].y;
+                    const double a = image_[0].areas[k][i], b = image_[1].areas[k][j];
+                    if (used[j] || dx < mc.boxDxMin || dx > mc.boxDxMax || dy < mc.boxDyMin || dy > mc.boxDyMax ||
+                        std::max(a, b) > mc.shape.maxAreaRatio * std::min(a, b))
+                        continue;
+                    if (std::abs(dy) < bestDy) {
+                        bestDy = std::abs(dy);
+                        best = static_cast<int>(j);
+                    }
+                }
+                if (best < 0) continue;
+                used[static_cast<std::size_t>(best)] = true;
+                stereo += calculator_.triangulate(L[i], R[static_cast<std::size_t>(best)]).has_value();
+            }
+        }
+        return stereo;
+    }
+
+    AvatarConfig config_;
+    StereoCoordinateCalculator calculator_;
+    cv::Mat kernel_, factors_;
+    BaselineImage image_[2];
+    double contrast_{0.0};
+};
+
+// ---------------------------------------------------------------------------
+// Benchmarks
+// ---------------------------------------------------------------------------
+
+void reportFound(benchmark::State& state, const Found& f) {
+    state.counters["stereo"] = f.stereo;
+    state.counters["features_L"] = f.featuresLeft;
+}
+
+void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel) {
+    const Input& in = input(name);
+    AnalyzeStereoImagePair chain(in.config);
+    chain.setParallel(parallel);
+    const Found f = found(chain, chain.analyze(in.pair, 0));  // warm-up, and the check
+    if (const std::string error = check(in, f); !error.empty()) {
+        state.SkipWithError(error.c_str());
+        return;
+    }
+    StageTimes times;
+    std::uint64_t iteration = 1;
+    const long faults0 = minorFaults();
+    for (auto _ : state) {
+        const VisionTargets result = chain.analyze(in.pair, iteration++);
+        times.add(result);
+        benchmark::DoNotOptimize(result.targets.data());
+    }
+    state.counters["faults"] = benchmark::Counter(static_cast<double>(minorFaults() - faults0),
+                                                  benchmark::Counter::kAvgIterations);
+    times.report(state);
+    reportFound(state, f);
+}
+
+void BM_Baseline(benchmark::State& state, const std::string& name) {
+    const Input& in = input(name);
+    Baseline baseline(in.config);
+    StageTimes times;
+    int stereo = baseline.run(in.pair, times);
+    times = {};
+    for (auto _ : state) {
+        stereo = baseline.run(in.pair, times);
+        benchmark::DoNotOptimize(stereo);
+    }
+    times.report(state);
+    state.counters["stereo"] = stereo;
+}
+
+/// The chain and the baseline alternately, so that both see the same load;
+/// the reported time is the chain's.
+void BM_PipelineVsBaseline(benchmark::State& state, const std::string& name) {
+    const Input& in = input(name);
+    AnalyzeStereoImagePair chain(in.config);
+    Baseline baseline(in.config);
+    StageTimes chainTimes, baselineTimes;
+    chain.analyze(in.pair, 0);
+    baseline.run(in.pair, baselineTimes);
+    baselineTimes = {};
+    std::uint64_t iteration = 1;
+    for (auto _ : state) {
+        const VisionTargets result = chain.analyze(in.pair, iteration++);
+        chainTimes.add(result);
+        state.SetIterationTime(result.timings.back().milliseconds / 1000.0);
+        benchmark::DoNotOptimize(baseline.run(in.pair, baselineTimes));
+    }
+    const double ours = chainTimes.medianOf("total"), theirs = baselineTimes.medianOf("total");
+    state.counters["total_ms"] = ours;
+    state.counters["baseline_ms"] = theirs;
+    state.counters["speedup"] = ours > 0.0 ? theirs / ours : 0.0;
+}
+
+void BM_FirstFrame(benchmark::State& state, const std::string& name) {
+    const Input& in = input(name);
+    const long faults0 = minorFaults();
+    StageTimes times;
+    for (auto _ : state) {
+        AnalyzeStereoImagePair chain(in.config);
+        times.add(chain.analyze(in.pair, 0));
+    }
+    state.counters["faults"] = benchmark::Counter(static_cast<double>(minorFaults() - faults0),
+                                                  benchmark::Counter::kAvgIterations);
+    times.report(state);
+}
+
+std::vector<std::string> inputNames() {
+    std::vector<std::string> names{"lab_1280x960"};
+    for (const char* size : {"640x480", "1280x960", "2448x2048"})
+        for (int n : {1, 10, 1000}) names.push_back(std::string("synthetic_") + size + "/n:" + std::to_string(n));
+    return names;
+}
+
+void registerAll() {
+    for (const std::string& name : inputNames()) {
+        benchmark::RegisterBenchmark(("Pipeline/" + name).c_str(), BM_Pipeline, name, true)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+        benchmark::RegisterBenchmark(("Baseline/" + name).c_str(), BM_Baseline, name)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+    }
+    for (const std::string name : {"lab_1280x960", "synthetic_1280x960/n:10"}) {
+        benchmark::RegisterBenchmark(("PipelineSerial/" + name).c_str(), BM_Pipeline, name, false)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+        benchmark::RegisterBenchmark(("PipelineVsBaseline/" + name).c_str(), BM_PipelineVsBaseline, name)
+            ->Unit(benchmark::kMillisecond)
+            ->UseManualTime();
+    }
+    benchmark::RegisterBenchmark("FirstFrame/lab_1280x960", BM_FirstFrame, std::string("lab_1280x960"))
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+}
+
+}  // namespace
+}  // namespace avatar
+
+int main(int argc, char** argv) {
+    benchmark::Initialize(&argc, argv);
+    if (argc > 1 && std::string(argv[1]).rfind("--opencv_threads=", 0) == 0) {
+        cv::setNumThreads(std::stoi(std::string(argv[1]).substr(17)));
+        --argc;
+    }
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    avatar::registerAll();
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
