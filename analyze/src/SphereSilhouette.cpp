@@ -11,11 +11,17 @@ namespace avatar {
 std::vector<cv::Point2d> featureOutline(const cv::Mat& mask, const Feature& feature) {
     // Isolate the feature's own component inside its box: flood it from its
     // first pixel (another feature may reach into the box).
+    // The box gets a one-pixel frame so that everything outside the feature
+    // is connected. Holes (noise inside a dim feature) are not silhouette
+    // edges: only the outer boundary is kept, by flooding the outside too.
     const cv::Rect box = feature.box;
-    cv::Mat region = mask(box).clone();
-    cv::threshold(region, region, 0, 255, cv::THRESH_BINARY);
-    const cv::Point seed = feature.boundary[kTopLeft] - box.tl();
+    cv::Mat region = cv::Mat::zeros(box.height + 2, box.width + 2, CV_8UC1);
+    cv::threshold(mask(box), region(cv::Rect(1, 1, box.width, box.height)), 0, 255, cv::THRESH_BINARY);
+    const cv::Point seed = feature.boundary[kTopLeft] - box.tl() + cv::Point(1, 1);
     cv::floodFill(region, seed, cv::Scalar(128), nullptr, cv::Scalar(), cv::Scalar(), 8);
+    cv::Mat notFeature = region != 128;  // 255 outside, holes and other features' pixels
+    cv::floodFill(notFeature, cv::Point(0, 0), cv::Scalar(0), nullptr, cv::Scalar(), cv::Scalar(), 4);
+    region.setTo(cv::Scalar(128), notFeature);  // holes join the feature
 
     std::vector<cv::Point2d> outline;
     auto inside = [&](int x, int y) {
@@ -24,7 +30,7 @@ std::vector<cv::Point2d> featureOutline(const cv::Mat& mask, const Feature& feat
     for (int y = 0; y < region.rows; ++y) {
         for (int x = 0; x < region.cols; ++x) {
             if (!inside(x, y)) continue;
-            const double px = x + box.x, py = y + box.y;
+            const double px = x - 1 + box.x, py = y - 1 + box.y;
             if (!inside(x - 1, y)) outline.emplace_back(px - 0.5, py);
             if (!inside(x + 1, y)) outline.emplace_back(px + 0.5, py);
             if (!inside(x, y - 1)) outline.emplace_back(px, py - 0.5);
