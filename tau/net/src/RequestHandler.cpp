@@ -1,0 +1,261 @@
+#include "RequestHandler.h"
+
+#include <avatar/acquire/AcquireStereoImagePair.h>
+#include <avatar/common/Error.h>
+#include <avatar/common/ImageUtils.h>
+#include <avatar/config/ConfigXml.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <chrono>
+#include <stdexcept>
+#include <typeinfo>
+
+namespace avatar::tau::detail {
+
+namespace {
+
+/// A request that is answered with a specific ERROR code.
+class Refused : public std::runtime_error {
+public:
+    Refused(ErrorCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
+    ErrorCode code() const { return code_; }
+
+private:
+    ErrorCode code_;
+};
+
+std::vector<std::uint8_t> replyFrame(MessageType type, std::uint32_t request, const std::vector<std::uint8_t>& payload) {
+    return encodeFrame(replyType(type), request, payload);
+}
+
+/// True when @p e is the plain avatar::Error VisionInterface throws when its
+/// own timeout ran out (and not one of the specific errors derived from it).
+bool timedOut(const Error& e, std::chrono::steady_clock::time_point start, std::chrono::milliseconds timeout) {
+    return typeid(e) == typeid(Error) && std::chrono::steady_clock::now() - start >= timeout;
+}
+
+}  // namespace
+
+std::uint8_t stateCode(VisionState state) {
+    switch (state) {
+        case VisionState::Idle: return 0;
+        case VisionState::Searching: return 1;
+        case VisionState::Snapshot: return 2;
+        case VisionState::Error: return 3;
+    }
+    return 3;
+}
+
+std::uint8_t acquisitionCode(AcquisitionStatus::State state) {
+    switch (state) {
+        case AcquisitionStatus::State::Ok: return 0;
+        case AcquisitionStatus::State::Recovering: return 1;
+        case AcquisitionStatus::State::Failed: return 2;
+        case AcquisitionStatus::State::Finished: return 3;
+    }
+    return 2;
+}
+
+std::uint8_t visibilityCode(Visibility visibility) {
+    switch (visibility) {
+        case Visibility::Unknown: return 0;
+        case Visibility::Good: return 1;
+        case Visibility::Poor: return 2;
+    }
+    return 0;
+}
+
+ImageKind imageKind(ImageKindCode code) {
+    switch (code) {
+        case ImageKindCode::Original: return ImageKind::Original;
+        case ImageKindCode::Filtered: return ImageKind::Filtered;
+        case ImageKindCode::Marked: return ImageKind::Marked;
+    }
+    throw InvalidArgument("image kind " + std::to_string(static_cast<int>(code)) + " unknown");
+}
+
+StatusReply statusReply(const VisionStatus& status, const std::string& backend) {
+    StatusReply r;
+    r.state = stateCode(status.state);
+    r.error = status.error;
+    r.heartbeat = status.heartbeat;
+    r.iteration = status.iteration;
+    r.configVersion = status.configVersion;
+    r.configIteration = status.configIteration;
+    r.targetsIteration = status.targetsIteration;
+    r.imagesIteration = status.imagesIteration;
+    r.acquisitionState = acquisitionCode(status.acquisition.state);
+    r.acquisitionMessage = status.acquisition.message;
+    r.visibility = visibilityCode(status.visibility);
+    r.visibilityReason = status.visibilityReason;
+    r.backend = backend;
+    return r;
+}
+
+ImagesReply encodeImages(const VisionImages& images, const GetImages& request) {
+    ImagesReply reply;
+    reply.iteration = images.iteration;
+    reply.kind = request.kind;
+    const PairLayout& layout = images.pair.layout();
+    std::size_t total = 0;
+    for (const Side side : {Side::Left, Side::Right}) {
+        const std::uint8_t bit = side == Side::Left ? kLeftImage : kRightImage;
+        if (!(request.sides & bit)) continue;
+        const cv::Mat& image = images.pair.image(side);
+        const cv::Mat colour = layout.format == PixelFormat::Bayer ? demosaic(image, layout.bayerPattern) : image;
+        const cv::Mat display = toDisplay8(colour, layout.bitDepth);
+        EncodedImage encoded;
+        encoded.side = side == Side::Left ? 0 : 1;
+        encoded.width = static_cast<std::uint32_t>(display.cols);
+        encoded.height = static_cast<std::uint32_t>(display.rows);
+        bool ok = false;
+        try {
+            ok = cv::imencode(".jpg", display, encoded.jpeg, {cv::IMWRITE_JPEG_QUALITY, request.jpegQuality});
+        } catch (const cv::Exception& e) {
+            throw Error(std::string("JPEG encoding failed: ") + e.what());
+        }
+        if (!ok) throw Error("JPEG encoding failed");
+        total += encoded.jpeg.size() + 13;
+        reply.images.push_back(std::move(encoded));
+    }
+    if (total + 10 > kMaxReplyPayload)
+        throw Error("images of iteration " + std::to_string(images.iteration) + " need " + std::to_string(total) +
+                    " bytes, above the reply limit");
+    return reply;
+}
+
+std::string messageOf(const ProtocolError& e) {
+    std::string m = e.what();
+    const std::string prefix = std::string(errorName(e.code())) + ": ";
+    if (m.compare(0, prefix.size(), prefix) == 0) m.erase(0, prefix.size());
+    return m;
+}
+
+std::vector<std::uint8_t> errorFrame(std::uint32_t request, ErrorCode code, const std::string& message) {
+    return encodeFrame(static_cast<std::uint16_t>(MessageType::Error), request, encode(ErrorReply{code, message}));
+}
+
+RequestHandler::RequestHandler(VisionInterface& vision, std::string serverName)
+    : vision_(vision), serverName_(std::move(serverName)), backend_(vision.backendName()) {}
+
+bool RequestHandler::blocks(std::uint16_t type) {
+    switch (static_cast<MessageType>(type)) {
+        case MessageType::TakeSnapshot:
+        case MessageType::SendConfig:
+        case MessageType::GetImages: return true;
+        default: return false;
+    }
+}
+
+bool RequestHandler::known(std::uint16_t type) {
+    return type >= static_cast<std::uint16_t>(MessageType::Hello) &&
+           type <= static_cast<std::uint16_t>(MessageType::Status);
+}
+
+std::vector<std::uint8_t> RequestHandler::helloReply(std::uint32_t request) const {
+    return replyFrame(MessageType::Hello, request, encode(HelloReply{kProtocolVersion, serverName_, backend_}));
+}
+
+std::vector<std::uint8_t> RequestHandler::handle(const Frame& request) const {
+    const std::uint32_t id = request.header.request;
+    const auto type = static_cast<MessageType>(request.header.type);
+    try {
+        return answer(request);
+    } catch (const Refused& e) {
+        return errorFrame(id, e.code(), e.what());
+    } catch (const ProtocolError& e) {
+        return errorFrame(id, e.code(), messageOf(e));
+    } catch (const ConfigError& e) {
+        return errorFrame(id, ErrorCode::ConfigRejected, e.what());
+    } catch (const AcquisitionError& e) {
+        return errorFrame(id, ErrorCode::AcquisitionFailed, e.what());
+    } catch (const InvalidArgument& e) {
+        // startSearching: the backend failed or finished. applyConfig: the
+        // document is valid XML but cannot be applied (e.g. an analysis that
+        // cannot be built); the old configuration stays in force.
+        if (type == MessageType::StartSearching) return errorFrame(id, ErrorCode::InvalidState, e.what());
+        if (type == MessageType::SendConfig) return errorFrame(id, ErrorCode::ConfigRejected, e.what());
+        return errorFrame(id, ErrorCode::Internal, e.what());
+    } catch (const std::exception& e) {
+        return errorFrame(id, ErrorCode::Internal, messageName(request.header.type) + " failed: " + e.what());
+    }
+}
+
+std::vector<std::uint8_t> RequestHandler::answer(const Frame& request) const {
+    const std::uint32_t id = request.header.request;
+    const auto type = static_cast<MessageType>(request.header.type);
+    const std::vector<std::uint8_t>& payload = request.payload;
+    switch (type) {
+        case MessageType::StartSearching:
+            decodeEmpty(type, payload);
+            vision_.startSearching();
+            return replyFrame(type, id, {});
+        case MessageType::StopSearching:
+            decodeEmpty(type, payload);
+            vision_.stopSearching();
+            return replyFrame(type, id, {});
+        case MessageType::TakeSnapshot: {
+            const TakeSnapshot m = decodeTakeSnapshot(payload);
+            const std::chrono::milliseconds timeout(m.timeoutMs);
+            const auto start = std::chrono::steady_clock::now();
+            try {
+                return replyFrame(type, id, encode(vision_.snapshot(timeout)));
+            } catch (const Error& e) {
+                if (timedOut(e, start, timeout)) throw Refused(ErrorCode::Timeout, e.what());
+                throw;
+            }
+        }
+        case MessageType::GetTargetData: {
+            decodeEmpty(type, payload);
+            const auto targets = vision_.latestTargets();
+            if (!targets) throw Refused(ErrorCode::NotAvailable, "no target data yet: no iteration has been analysed");
+            return replyFrame(type, id, encode(*targets));
+        }
+        case MessageType::SendConfig: {
+            const SendConfig m = decodeSendConfig(payload);
+            const std::chrono::milliseconds timeout(std::chrono::seconds(10));
+            const auto start = std::chrono::steady_clock::now();
+            try {
+                const std::uint32_t version = vision_.applyConfig(m.xml, timeout);
+                // The iteration the new configuration applies from.
+                const VisionStatus s = vision_.status();
+                const std::uint64_t from = s.configVersion == version ? s.configIteration : s.iteration + 1;
+                return replyFrame(type, id, encode(ConfigApplied{version, from}));
+            } catch (const ConfigError&) {
+                throw;
+            } catch (const Error& e) {
+                if (timedOut(e, start, timeout)) throw Refused(ErrorCode::Timeout, e.what());
+                throw;
+            }
+        }
+        case MessageType::GetConfig: {
+            decodeEmpty(type, payload);
+            // Read the status on both sides of the XML, so the three values
+            // belong to one configuration even if another client changes it.
+            for (int attempt = 0;; ++attempt) {
+                const VisionStatus before = vision_.status();
+                std::string xml = vision_.configXml();
+                const VisionStatus after = vision_.status();
+                if (before.configVersion == after.configVersion || attempt == 3)
+                    return replyFrame(type, id, encode(ConfigReply{after.configVersion, after.configIteration,
+                                                                   std::move(xml)}));
+            }
+        }
+        case MessageType::GetImages: {
+            const GetImages m = decodeGetImages(payload);
+            const VisionImages images = vision_.images(imageKind(m.kind));
+            if (images.iteration == 0 || images.pair.empty())
+                throw Refused(ErrorCode::NotAvailable, "no images yet: no iteration has been analysed");
+            return replyFrame(type, id, encode(encodeImages(images, m)));
+        }
+        case MessageType::Status:
+            decodeEmpty(type, payload);
+            return replyFrame(type, id, encode(statusReply(vision_.status(), backend_)));
+        case MessageType::Hello:
+        case MessageType::Error: break;
+    }
+    throw Refused(ErrorCode::UnknownMessage, "unknown message type " + messageName(request.header.type));
+}
+
+}  // namespace avatar::tau::detail

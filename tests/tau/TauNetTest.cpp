@@ -1,0 +1,1197 @@
+// TAUNet on the wire: a real server on an ephemeral loopback port over a real
+// VisionInterface (simulation backend at 640x480, or the replay backend on the
+// bundled lab session), driven by raw Boost.Asio clients that build and parse
+// frames by hand from docs/protocol.md. Every loop is bounded in time.
+
+#include <avatar/acquire/RawDataAcquire.h>
+#include <avatar/config/ConfigXml.h>
+#include <avatar/render/AcquireSIPSimulation.h>
+#include <avatar/tau/Protocol.h>
+#include <avatar/tau/TauNetServer.h>
+#include <avatar/tau/VisionInterface.h>
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/write.hpp>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <atomic>
+#include <cstring>
+#include <fcntl.h>
+#include <fstream>
+#include <poll.h>
+#include <regex>
+#include <signal.h>
+#include <spawn.h>
+#include <sstream>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+
+using namespace avatar;
+using namespace std::chrono_literals;
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+using Bytes = std::vector<std::uint8_t>;
+
+extern char** environ;
+
+namespace {
+
+// ---- the simulation backend of VisionInterfaceTest (640x480, one sphere) ----
+
+StereoSystemConfig halfScorpion() {
+    StereoSystemConfig c;
+    c.left.fc = {1049.13 / 2, 1050.38 / 2};
+    c.left.cc = {712.28 / 2, 564.45 / 2};
+    c.right.fc = {1047.20 / 2, 1048.66 / 2};
+    c.right.cc = {702.74 / 2, 561.13 / 2};
+    c.om = {0.002, 0.003, 0.047};
+    c.translationMm = {-106.53, -2.58, 0.82};
+    return c;
+}
+
+AvatarConfig simConfig() {
+    AvatarConfig c;
+    c.camera.width = 640;
+    c.camera.height = 480;
+    c.camera.bitDepth = 16;
+    c.camera.channels = 1;
+    c.camera.bayer = true;
+    c.camera.bayerPattern = BayerPattern::BG;
+    c.stereo = halfScorpion();
+    TargetType sample;
+    sample.name = "sample";
+    sample.redGreen = {0.9, 1.6};
+    sample.redBlue = {2.5, 100};
+    sample.blueGreen = {0, 0.45};
+    sample.area = {100, 1e6};
+    sample.shape = TargetShape::Sphere;
+    c.targets.targets = {sample};
+    c.match.boxDxMin = 5;
+    c.match.boxDxMax = 200;
+    c.match.boxDyMin = -20;
+    c.match.boxDyMax = 25;
+    return c;
+}
+
+const cv::Point3d kSphereMm{30, 20, 800};
+
+std::unique_ptr<AcquireStereoImagePair> simulation() {
+    render::Scene scene;
+    scene.seabed.distanceMm = 1200;
+    scene.sensor.readNoiseDn = 8;
+    render::TargetSpec sphere;
+    sphere.name = "ball";
+    sphere.type = "sample";
+    sphere.shape = render::Shape::Sphere;
+    sphere.centreMm = {kSphereMm.x, kSphereMm.y, kSphereMm.z};
+    sphere.radiusMm = 30;
+    scene.targets = {sphere};
+    render::RenderOptions options;
+    options.sensor.width = 640;
+    options.sensor.height = 480;
+    options.seed = 7;
+    return std::make_unique<render::AcquireSIPSimulation>(scene, halfScorpion(), options);
+}
+
+/// A VisionInterface and a TauNetServer on 127.0.0.1, ephemeral port.
+struct Daemon {
+    explicit Daemon(tau::TauNetOptions options = {}, std::unique_ptr<AcquireStereoImagePair> backend = simulation(),
+                    const AvatarConfig& config = simConfig(), std::filesystem::path configDirectory = {}) {
+        VisionOptions vo;
+        vo.configDirectory = std::move(configDirectory);
+        vision = std::make_unique<VisionInterface>(std::move(backend), config, vo);
+        options.port = 0;
+        server = std::make_unique<tau::TauNetServer>(*vision, options);
+    }
+    ~Daemon() {
+        server.reset();
+        vision.reset();
+    }
+    std::uint16_t port() const { return server->port(); }
+
+    std::unique_ptr<VisionInterface> vision;
+    std::unique_ptr<tau::TauNetServer> server;
+};
+
+// ---- bytes by hand (independent of the codec) -----------------------------
+
+void put16(Bytes& b, std::uint16_t v) {
+    b.push_back(static_cast<std::uint8_t>(v >> 8));
+    b.push_back(static_cast<std::uint8_t>(v));
+}
+void put32(Bytes& b, std::uint32_t v) {
+    for (int s = 24; s >= 0; s -= 8) b.push_back(static_cast<std::uint8_t>(v >> s));
+}
+void putStr(Bytes& b, const std::string& s) {
+    put32(b, static_cast<std::uint32_t>(s.size()));
+    b.insert(b.end(), s.begin(), s.end());
+}
+
+Bytes frame(std::uint16_t type, std::uint32_t request, const Bytes& payload = {}, std::uint16_t reserved = 0) {
+    Bytes b;
+    put32(b, static_cast<std::uint32_t>(payload.size()));
+    put16(b, type);
+    put16(b, reserved);
+    put32(b, request);
+    b.insert(b.end(), payload.begin(), payload.end());
+    return b;
+}
+
+Bytes helloPayload(std::uint16_t version = 1, const std::string& name = "wire-test") {
+    Bytes p;
+    put16(p, version);
+    putStr(p, name);
+    return p;
+}
+
+Bytes errorFrame(std::uint32_t request, std::uint16_t code, const std::string& message) {
+    Bytes p;
+    put16(p, code);
+    putStr(p, message);
+    return frame(0xFFFF, request, p);
+}
+
+/// Reads the fields of a payload in order.
+class Fields {
+public:
+    explicit Fields(Bytes b) : b_(std::move(b)) {}
+    std::uint8_t u8() { return need(1), b_[pos_++]; }
+    std::uint16_t u16() {
+        need(2);
+        const auto v = static_cast<std::uint16_t>((b_[pos_] << 8) | b_[pos_ + 1]);
+        pos_ += 2;
+        return v;
+    }
+    std::uint32_t u32() {
+        std::uint32_t v = 0;
+        for (int i = 0; i < 4; ++i) v = (v << 8) | u8();
+        return v;
+    }
+    std::uint64_t u64() {
+        std::uint64_t v = 0;
+        for (int i = 0; i < 8; ++i) v = (v << 8) | u8();
+        return v;
+    }
+    std::string str() {
+        const std::uint32_t n = u32();
+        need(n);
+        std::string s(b_.begin() + static_cast<std::ptrdiff_t>(pos_), b_.begin() + static_cast<std::ptrdiff_t>(pos_ + n));
+        pos_ += n;
+        return s;
+    }
+    bool done() const { return pos_ == b_.size(); }
+
+private:
+    void need(std::size_t n) const {
+        if (pos_ + n > b_.size()) throw std::runtime_error("payload too short");
+    }
+    Bytes b_;
+    std::size_t pos_{0};
+};
+
+struct RawFrame {
+    std::uint16_t type{0};
+    std::uint16_t reserved{0};
+    std::uint32_t request{0};
+    Bytes payload;
+    Bytes bytes;  ///< the whole frame as received
+};
+
+/// A raw TCP client with deadlines: every operation runs the client's own
+/// io_context for at most its timeout.
+class Client {
+public:
+    enum class Result { Frame, Closed, Timeout };
+
+    explicit Client(std::uint16_t port) : socket_(io_) {
+        bool done = false;
+        boost::system::error_code result;
+        socket_.async_connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port),
+                              [&](const boost::system::error_code& ec) {
+                                  result = ec;
+                                  done = true;
+                              });
+        run(5s, done);
+        if (!done || result) throw std::runtime_error("cannot connect to 127.0.0.1:" + std::to_string(port));
+    }
+
+    /// Writes all of @p bytes; false if the server closed the connection.
+    bool send(const Bytes& bytes) {
+        boost::system::error_code ec;
+        asio::write(socket_, asio::buffer(bytes), ec);
+        return !ec;
+    }
+
+    Result read(RawFrame& out, std::chrono::milliseconds timeout = 20s) {
+        const auto deadline = std::chrono::steady_clock::now() + timeout;
+        for (;;) {
+            if (take(out)) return Result::Frame;
+            if (closed_) return Result::Closed;
+            const auto left = deadline - std::chrono::steady_clock::now();
+            if (left <= 0s) return Result::Timeout;
+            if (!receive(std::chrono::duration_cast<std::chrono::milliseconds>(left))) return Result::Timeout;
+        }
+    }
+
+    /// The next frame; fails the test (by throwing) on close or timeout.
+    RawFrame next(std::chrono::milliseconds timeout = 20s) {
+        RawFrame f;
+        const Result r = read(f, timeout);
+        if (r == Result::Closed) throw std::runtime_error("connection closed while waiting for a frame");
+        if (r == Result::Timeout) throw std::runtime_error("no frame within the timeout");
+        return f;
+    }
+
+    RawFrame request(std::uint16_t type, std::uint32_t id, const Bytes& payload = {}) {
+        if (!send(frame(type, id, payload))) throw std::runtime_error("send failed");
+        return next();
+    }
+
+    void hello() {
+        const RawFrame r = request(0x0001, 1, helloPayload());
+        if (r.type != 0x8001) throw std::runtime_error("HELLO not answered with HELLO_REPLY");
+    }
+
+    /// True when the server closes the connection within @p timeout and sends
+    /// no further frame; frames received meanwhile are counted in @p frames.
+    bool closedWithin(std::chrono::milliseconds timeout, std::size_t* frames = nullptr) {
+        const auto deadline = std::chrono::steady_clock::now() + timeout;
+        std::size_t n = 0;
+        for (;;) {
+            RawFrame f;
+            const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+            const Result r = read(f, std::max(left, 0ms));
+            if (r == Result::Frame) {
+                ++n;
+                continue;
+            }
+            if (frames) *frames = n;
+            return r == Result::Closed && (frames || n == 0);
+        }
+    }
+
+    void close() {
+        boost::system::error_code ec;
+        socket_.close(ec);
+    }
+    tcp::socket& socket() { return socket_; }
+
+private:
+    void run(std::chrono::milliseconds timeout, const bool& done) {
+        io_.restart();
+        io_.run_for(timeout);
+        if (!done) {
+            boost::system::error_code ec;
+            socket_.cancel(ec);
+            io_.restart();
+            io_.run();
+        }
+    }
+
+    bool receive(std::chrono::milliseconds timeout) {
+        bool done = false;
+        boost::system::error_code result;
+        std::size_t got = 0;
+        socket_.async_read_some(asio::buffer(chunk_), [&](const boost::system::error_code& ec, std::size_t n) {
+            result = ec;
+            got = n;
+            done = true;
+        });
+        run(timeout, done);
+        if (!done || result == asio::error::operation_aborted) return false;
+        if (result) {
+            closed_ = true;  // EOF or reset
+            return true;
+        }
+        buffer_.insert(buffer_.end(), chunk_.begin(), chunk_.begin() + static_cast<std::ptrdiff_t>(got));
+        return true;
+    }
+
+    bool take(RawFrame& out) {
+        if (buffer_.size() < 12) return false;
+        Fields h(buffer_);
+        const std::uint32_t length = h.u32();
+        if (buffer_.size() < 12 + std::size_t{length}) return false;
+        out.type = h.u16();
+        out.reserved = h.u16();
+        out.request = h.u32();
+        out.payload.assign(buffer_.begin() + 12, buffer_.begin() + 12 + length);
+        out.bytes.assign(buffer_.begin(), buffer_.begin() + 12 + length);
+        buffer_.erase(buffer_.begin(), buffer_.begin() + 12 + length);
+        return true;
+    }
+
+    asio::io_context io_;
+    tcp::socket socket_;
+    std::array<std::uint8_t, 65536> chunk_{};
+    Bytes buffer_;
+    bool closed_{false};
+};
+
+template <typename Predicate>
+bool eventually(Predicate p, std::chrono::milliseconds limit = 30s) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < end) {
+        if (p()) return true;
+        std::this_thread::sleep_for(10ms);
+    }
+    return p();
+}
+
+std::uint16_t errorCode(const RawFrame& f) {
+    Fields r(f.payload);
+    return r.u16();
+}
+std::string errorMessage(const RawFrame& f) {
+    Fields r(f.payload);
+    r.u16();
+    return r.str();
+}
+
+/// The message the codec gives a framing error, as the server sends it
+/// (without the "CODE: " prefix of ProtocolError::what()).
+std::string framingMessage(const Bytes& bytes) {
+    tau::FrameDecoder decoder(tau::kMaxRequestPayload);
+    decoder.feed(bytes.data(), bytes.size());
+    try {
+        decoder.next();
+    } catch (const tau::ProtocolError& e) {
+        std::string m = e.what();
+        const std::string prefix = std::string(tau::errorName(e.code())) + ": ";
+        if (m.compare(0, prefix.size(), prefix) == 0) m.erase(0, prefix.size());
+        return m;
+    }
+    return "(no error)";
+}
+
+constexpr std::uint16_t kHello = 0x0001, kStart = 0x0002, kStop = 0x0003, kSnapshot = 0x0004, kTargets = 0x0005,
+                        kSendConfig = 0x0006, kGetConfig = 0x0007, kImages = 0x0008, kStatus = 0x0009;
+
+Bytes u32Payload(std::uint32_t v) {
+    Bytes p;
+    put32(p, v);
+    return p;
+}
+Bytes strPayload(const std::string& s) {
+    Bytes p;
+    putStr(p, s);
+    return p;
+}
+Bytes imagesPayload(std::uint8_t kind, std::uint8_t sides, std::uint8_t quality) { return {kind, sides, quality}; }
+
+}  // namespace
+
+// ---- session and framing ----------------------------------------------------
+
+TEST(TauNet, HelloReplyIsExact) {
+    Daemon d;
+    Client c(d.port());
+    ASSERT_TRUE(c.send(frame(kHello, 0xDEADBEEF, helloPayload(1, "wire-test"))));
+    Bytes expected;
+    put16(expected, 1);
+    putStr(expected, "TAUNet");
+    putStr(expected, "simulation");
+    EXPECT_EQ(c.next().bytes, frame(0x8001, 0xDEADBEEF, expected));
+    // A second HELLO is answered like the first.
+    ASSERT_TRUE(c.send(frame(kHello, 2, helloPayload(1, "again"))));
+    EXPECT_EQ(c.next().bytes, frame(0x8001, 2, expected));
+}
+
+TEST(TauNet, StatusBeforeTheFirstIterationFieldByField) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    std::this_thread::sleep_for(250ms);  // the idle loop beats every 100 ms
+    const RawFrame f = c.request(kStatus, 7);
+    ASSERT_EQ(f.type, 0x8009);
+    EXPECT_EQ(f.request, 7u);
+    EXPECT_EQ(f.reserved, 0u);
+    Fields r(f.payload);
+    EXPECT_EQ(r.u8(), 0);         // state idle
+    EXPECT_EQ(r.str(), "");       // error
+    const std::uint64_t heartbeat = r.u64();
+    EXPECT_GE(heartbeat, 2u);
+    EXPECT_EQ(r.u64(), 0u);       // iteration
+    EXPECT_EQ(r.u32(), 1u);       // configVersion
+    EXPECT_EQ(r.u64(), 1u);       // configIteration: the first iteration will use it
+    EXPECT_EQ(r.u64(), 0u);       // targetsIteration
+    EXPECT_EQ(r.u64(), 0u);       // imagesIteration
+    EXPECT_EQ(r.u8(), 0);         // acquisition ok
+    EXPECT_EQ(r.str(), "");       // acquisitionMessage
+    EXPECT_EQ(r.u8(), 0);         // visibility unknown
+    EXPECT_EQ(r.str(), "");       // visibilityReason
+    EXPECT_EQ(r.u64(), 0u);       // recordBacklog
+    EXPECT_EQ(r.u64(), 0u);       // recorded
+    EXPECT_EQ(r.u64(), 0u);       // unrecorded
+    EXPECT_EQ(r.str(), "");       // recordError
+    EXPECT_EQ(r.str(), "simulation");
+    EXPECT_TRUE(r.done());
+    // The heartbeat goes on.
+    std::this_thread::sleep_for(250ms);
+    Fields again(c.request(kStatus, 8).payload);
+    again.u8();
+    again.str();
+    EXPECT_GE(again.u64(), heartbeat + 2);
+}
+
+TEST(TauNet, FirstMessageMustBeHello) {
+    Daemon d;
+    Client c(d.port());
+    ASSERT_TRUE(c.send(frame(kStatus, 41)));
+    EXPECT_EQ(c.next().bytes, errorFrame(41, 3, "the first message must be HELLO, not STATUS"));
+    EXPECT_TRUE(c.closedWithin(5s));
+    // An unknown type first is the same error.
+    Client u(d.port());
+    ASSERT_TRUE(u.send(frame(0x0042, 9)));
+    EXPECT_EQ(u.next().bytes, errorFrame(9, 3, "the first message must be HELLO, not 0x0042"));
+    EXPECT_TRUE(u.closedWithin(5s));
+}
+
+TEST(TauNet, OtherVersionIsRefusedAndClosed) {
+    Daemon d;
+    Client c(d.port());
+    Bytes v2;
+    put16(v2, 2);
+    putStr(v2, "future client");
+    v2.push_back(0x55);  // whatever version 2 adds: the version is checked first
+    ASSERT_TRUE(c.send(frame(kHello, 3, v2)));
+    EXPECT_EQ(c.next().bytes,
+              errorFrame(3, 4, "protocol version 2 is not supported; this server speaks version 1"));
+    EXPECT_TRUE(c.closedWithin(5s));
+}
+
+TEST(TauNet, MalformedHeaderIsAnsweredWithRequestZeroAndClosed) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    const Bytes bad = frame(kStatus, 5, {}, /*reserved*/ 1);
+    ASSERT_TRUE(c.send(bad));
+    const RawFrame f = c.next();
+    EXPECT_EQ(f.bytes, errorFrame(0, 1, framingMessage(bad)));
+    EXPECT_NE(errorMessage(f).find("reserved"), std::string::npos) << errorMessage(f);
+    EXPECT_TRUE(c.closedWithin(5s));
+    // Everyone else is still served.
+    Client other(d.port());
+    other.hello();
+    EXPECT_EQ(other.request(kStatus, 1).type, 0x8009);
+}
+
+TEST(TauNet, OversizedFrameIsRefusedFromItsHeaderAlone) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    Bytes header;
+    put32(header, tau::kMaxRequestPayload + 1);
+    put16(header, kSendConfig);
+    put16(header, 0);
+    put32(header, 77);
+    ASSERT_TRUE(c.send(header));  // no payload follows: the header is enough
+    const RawFrame f = c.next(5s);
+    EXPECT_EQ(f.bytes, errorFrame(0, 2, framingMessage(header)));
+    EXPECT_NE(errorMessage(f).find("1048577"), std::string::npos) << errorMessage(f);
+    EXPECT_TRUE(c.closedWithin(5s));
+}
+
+TEST(TauNet, PayloadOfExactlyTheLimitIsReadAndJudgedByItsFields) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    ASSERT_TRUE(c.send(frame(kStatus, 12, Bytes(tau::kMaxRequestPayload, 0xAB))));
+    const RawFrame f = c.next();
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(f.request, 12u);
+    EXPECT_EQ(errorCode(f), 6);  // BAD_PAYLOAD, connection kept
+    EXPECT_EQ(c.request(kStatus, 13).type, 0x8009);
+}
+
+TEST(TauNet, GarbageIsAMalformedFrame) {
+    Daemon d;
+    Client c(d.port());
+    const std::string http = "GET / HTTP/1.1\r\nHost: vision\r\n\r\n";
+    const Bytes garbage(http.begin(), http.end());
+    ASSERT_TRUE(c.send(garbage));
+    const RawFrame f = c.next(5s);
+    EXPECT_EQ(f.bytes, errorFrame(0, 1, framingMessage(garbage)));
+    EXPECT_TRUE(c.closedWithin(5s));
+
+    // Random bytes after a good HELLO: an ERROR and a close, never a crash or a hang.
+    cv::RNG rng(3);
+    for (int round = 0; round < 20; ++round) {
+        Client g(d.port());
+        g.hello();
+        Bytes noise(12 + static_cast<std::size_t>(rng.uniform(0, 300)));  // at least a header
+        for (auto& b : noise) b = static_cast<std::uint8_t>(rng.uniform(0, 256));
+        noise[6] = 0xFF;  // a nonzero reserved field: the header is bad for sure
+        ASSERT_TRUE(g.send(noise));
+        RawFrame e;
+        ASSERT_EQ(g.read(e, 5s), Client::Result::Frame) << "round " << round;
+        EXPECT_EQ(e.type, 0xFFFF);
+        EXPECT_TRUE(errorCode(e) == 1 || errorCode(e) == 2) << errorCode(e);
+        EXPECT_EQ(e.request, 0u);
+        EXPECT_TRUE(g.closedWithin(5s)) << "round " << round;
+    }
+    Client other(d.port());
+    other.hello();
+    EXPECT_EQ(other.request(kStatus, 1).type, 0x8009);
+}
+
+TEST(TauNet, UnknownMessagesAreAnsweredAndTheConnectionKept) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    EXPECT_EQ(c.request(0x0042, 100).bytes, errorFrame(100, 5, "unknown message type 0x0042"));
+    EXPECT_EQ(c.request(0x8009, 101).bytes, errorFrame(101, 5, "unknown message type " + tau::messageName(0x8009)));
+    EXPECT_EQ(c.request(0xFFFF, 102).bytes, errorFrame(102, 5, "unknown message type " + tau::messageName(0xFFFF)));
+    EXPECT_EQ(c.request(0x0000, 103).bytes, errorFrame(103, 5, "unknown message type " + tau::messageName(0)));
+    EXPECT_EQ(c.request(kStatus, 104).type, 0x8009);
+}
+
+TEST(TauNet, BadPayloadsAreAnsweredAndTheConnectionKept) {
+    Daemon d;
+    Client c(d.port());
+    // A HELLO that does not decode does not open the session, but is not fatal.
+    Bytes shortHello;
+    put16(shortHello, 1);
+    put32(shortHello, 50);  // a 50-byte name that is not there
+    RawFrame f = c.request(kHello, 1, shortHello);
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(errorCode(f), 6);
+    c.hello();
+
+    struct Case {
+        std::uint16_t type;
+        Bytes payload;
+        const char* what;
+    };
+    const std::vector<Case> cases = {
+        {kStatus, {0}, "STATUS with a byte"},
+        {kStart, {1, 2}, "START_SEARCHING with bytes"},
+        {kStop, {1}, "STOP_SEARCHING with a byte"},
+        {kTargets, {0}, "GET_TARGET_DATA with a byte"},
+        {kGetConfig, {0, 0, 0, 0}, "GET_CONFIG with bytes"},
+        {kSnapshot, {0, 1}, "TAKE_SNAPSHOT short"},
+        {kSnapshot, {0, 0, 0, 1, 0}, "TAKE_SNAPSHOT long"},
+        {kSendConfig, {0, 0, 0, 9, 'x'}, "SEND_CONFIG string short"},
+        {kImages, imagesPayload(3, 3, 90), "GET_IMAGES kind 3"},
+        {kImages, imagesPayload(0, 0, 90), "GET_IMAGES no side"},
+        {kImages, imagesPayload(0, 4, 90), "GET_IMAGES side bit 2"},
+        {kImages, imagesPayload(0, 3, 0), "GET_IMAGES quality 0"},
+        {kImages, imagesPayload(0, 3, 101), "GET_IMAGES quality 101"},
+        {kImages, {0, 3}, "GET_IMAGES short"},
+    };
+    std::uint32_t id = 200;
+    for (const Case& k : cases) {
+        f = c.request(k.type, id, k.payload);
+        EXPECT_EQ(f.type, 0xFFFF) << k.what;
+        EXPECT_EQ(f.request, id) << k.what;
+        EXPECT_EQ(errorCode(f), 6) << k.what << ": " << errorMessage(f);
+        EXPECT_FALSE(errorMessage(f).empty()) << k.what;
+        ++id;
+    }
+    EXPECT_EQ(c.request(kStatus, id).type, 0x8009);
+    EXPECT_GE(d.server->stats().protocolErrors, cases.size() + 1);
+}
+
+// ---- the requests -------------------------------------------------------------
+
+TEST(TauNet, NothingAvailableBeforeTheFirstIteration) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    EXPECT_EQ(c.request(kTargets, 5).bytes, errorFrame(5, 10, "no target data yet: no iteration has been analysed"));
+    EXPECT_EQ(c.request(kImages, 6, imagesPayload(0, 3, 90)).bytes,
+              errorFrame(6, 10, "no images yet: no iteration has been analysed"));
+}
+
+TEST(TauNet, SnapshotReturnsTheTargetsAndTargetDataRepeatsThem) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    const RawFrame snap = c.request(kSnapshot, 20, u32Payload(20000));
+    ASSERT_EQ(snap.type, 0x8004) << (snap.type == 0xFFFF ? errorMessage(snap) : "");
+    EXPECT_EQ(snap.request, 20u);
+    const VisionTargets t = tau::decodeTargetData(snap.payload);
+    EXPECT_EQ(t.iteration, 1u);
+    EXPECT_EQ(t.acquisition.group, 1u);
+    EXPECT_EQ(t.acquisition.member, 0u);
+    EXPECT_EQ(t.acquisition.left.cameraId, "sim-left");
+    EXPECT_EQ(t.acquisition.right.cameraId, "sim-right");
+    EXPECT_EQ(t.visibility, Visibility::Good);
+    ASSERT_EQ(t.targets.size(), 1u);
+    EXPECT_EQ(t.targets[0].type, "sample");
+    EXPECT_TRUE(t.targets[0].flags & kTargetStereo);
+    ASSERT_TRUE(t.targets[0].positionVisionMm.has_value());
+    EXPECT_LT(cv::norm(*t.targets[0].positionVisionMm - kSphereMm), 3.0);
+    EXPECT_FALSE(t.timings.empty());
+    // The server's encoding is the codec's encoding of VisionInterface's result.
+    EXPECT_EQ(snap.payload, tau::encode(*d.vision->latestTargets()));
+
+    // GET_TARGET_DATA: the same data, byte for byte.
+    const RawFrame data = c.request(kTargets, 21);
+    EXPECT_EQ(data.bytes, frame(0x8005, 21, snap.payload));
+
+    // The vision loop turns idle on its next turn after the snapshot.
+    RawFrame status;
+    ASSERT_TRUE(eventually([&] { return Fields((status = c.request(kStatus, 22)).payload).u8() == 0; }, 10s));
+    Fields s(status.payload);
+    EXPECT_EQ(s.u8(), 0);    // idle again
+    s.str();
+    s.u64();
+    EXPECT_EQ(s.u64(), 1u);  // iteration
+    EXPECT_EQ(s.u32(), 1u);
+    EXPECT_EQ(s.u64(), 1u);
+    EXPECT_EQ(s.u64(), 1u);  // targetsIteration
+    EXPECT_EQ(s.u64(), 1u);  // imagesIteration
+    EXPECT_EQ(s.u8(), 0);
+    s.str();
+    EXPECT_EQ(s.u8(), 1);    // visibility good
+}
+
+TEST(TauNet, SnapshotTimeoutIsTimeout) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    const RawFrame f = c.request(kSnapshot, 30, u32Payload(0));  // nothing renders in 0 ms
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(f.request, 30u);
+    EXPECT_EQ(errorCode(f), 9) << errorMessage(f);
+    EXPECT_NE(errorMessage(f).find("timed out"), std::string::npos) << errorMessage(f);
+    EXPECT_EQ(c.request(kStatus, 31).type, 0x8009);
+}
+
+TEST(TauNet, ImagesOfEveryKindAndSide) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    ASSERT_EQ(c.request(kSnapshot, 1, u32Payload(20000)).type, 0x8004);
+    std::uint32_t id = 40;
+    for (std::uint8_t kind = 0; kind < 3; ++kind) {
+        for (std::uint8_t sides = 1; sides <= 3; ++sides) {
+            const RawFrame f = c.request(kImages, id, imagesPayload(kind, sides, 80));
+            ASSERT_EQ(f.type, 0x8008) << int(kind) << "/" << int(sides) << ": "
+                                      << (f.type == 0xFFFF ? errorMessage(f) : "");
+            EXPECT_EQ(f.request, id);
+            Fields r(f.payload);
+            EXPECT_EQ(r.u64(), 1u);  // iteration
+            EXPECT_EQ(r.u8(), kind);
+            const std::uint8_t count = r.u8();
+            EXPECT_EQ(count, sides == 3 ? 2 : 1);
+            std::vector<std::uint8_t> seen;
+            for (std::uint8_t i = 0; i < count; ++i) {
+                const std::uint8_t side = r.u8();
+                seen.push_back(side);
+                EXPECT_EQ(r.u32(), 640u);
+                EXPECT_EQ(r.u32(), 480u);
+                const std::string jpeg = r.str();
+                ASSERT_GT(jpeg.size(), 2u);
+                EXPECT_EQ(static_cast<std::uint8_t>(jpeg[0]), 0xFF);  // SOI
+                EXPECT_EQ(static_cast<std::uint8_t>(jpeg[1]), 0xD8);
+                const cv::Mat img = cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U,
+                                                         const_cast<char*>(jpeg.data())),
+                                                 cv::IMREAD_UNCHANGED);
+                EXPECT_EQ(img.size(), cv::Size(640, 480));
+                EXPECT_EQ(img.type(), CV_8UC3);
+            }
+            EXPECT_TRUE(r.done());
+            const std::vector<std::uint8_t> expectedSides =
+                sides == 1 ? std::vector<std::uint8_t>{0} : sides == 2 ? std::vector<std::uint8_t>{1}
+                                                                       : std::vector<std::uint8_t>{0, 1};
+            EXPECT_EQ(seen, expectedSides);
+            ++id;
+        }
+    }
+}
+
+TEST(TauNet, RejectedConfigurationKeepsTheOldOne) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    const std::string before = d.vision->configXml();
+    RawFrame f = c.request(kGetConfig, 1);
+    ASSERT_EQ(f.type, 0x8007);
+    {
+        Fields r(f.payload);
+        EXPECT_EQ(r.u32(), 1u);
+        EXPECT_EQ(r.u64(), 1u);
+        EXPECT_EQ(r.str(), before);
+        EXPECT_TRUE(r.done());
+    }
+
+    std::string bad = before;
+    bad.replace(bad.find("<width>640</width>"), 18, "<width>wide</width>");
+    std::string expected;
+    try {
+        readConfigString(bad, "sent configuration");
+    } catch (const ConfigError& e) {
+        expected = e.what();
+    }
+    ASSERT_NE(expected.find("/avatar/camera/width"), std::string::npos) << expected;
+    EXPECT_EQ(c.request(kSendConfig, 2, strPayload(bad)).bytes, errorFrame(2, 7, expected));
+
+    // Valid XML whose analysis cannot be built: rejected too.
+    AvatarConfig broken = simConfig();
+    broken.analysis.stages = {"demosaic", "match"};
+    f = c.request(kSendConfig, 3, strPayload(writeConfigString(broken)));
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(errorCode(f), 7) << errorMessage(f);
+
+    // Not XML at all.
+    f = c.request(kSendConfig, 4, strPayload("<avatar"));
+    EXPECT_EQ(errorCode(f), 7) << errorMessage(f);
+
+    f = c.request(kGetConfig, 5);
+    Fields r(f.payload);
+    EXPECT_EQ(r.u32(), 1u);
+    EXPECT_EQ(r.u64(), 1u);
+    EXPECT_EQ(r.str(), before);
+    // And it still works with it.
+    const RawFrame snap = c.request(kSnapshot, 6, u32Payload(20000));
+    ASSERT_EQ(snap.type, 0x8004);
+    EXPECT_EQ(tau::decodeTargetData(snap.payload).targets.size(), 1u);
+}
+
+TEST(TauNet, AppliedConfigurationIsReportedAndServed) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    ASSERT_EQ(c.request(kSnapshot, 1, u32Payload(20000)).type, 0x8004);
+    AvatarConfig narrower = simConfig();
+    narrower.targets.targets[0].area = {100, 200};  // the sphere is larger: filtered out
+    const std::string xml = writeConfigString(narrower);
+    Bytes applied;
+    put32(applied, 2);  // configVersion
+    put32(applied, 0);
+    put32(applied, 2);  // configIteration: the next iteration
+    EXPECT_EQ(c.request(kSendConfig, 2, strPayload(xml)).bytes, frame(0x8006, 2, applied));
+
+    const RawFrame f = c.request(kGetConfig, 3);
+    Fields r(f.payload);
+    EXPECT_EQ(r.u32(), 2u);
+    EXPECT_EQ(r.u64(), 2u);
+    EXPECT_EQ(r.str(), xml);
+    const VisionTargets t = tau::decodeTargetData(c.request(kSnapshot, 4, u32Payload(20000)).payload);
+    EXPECT_EQ(t.iteration, 2u);
+    EXPECT_EQ(t.acquisition.group, 2u);
+    EXPECT_TRUE(t.targets.empty());
+}
+
+TEST(TauNet, RepliesComeInRequestOrderWhateverTheirDuration) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    // One write: a slow request between fast ones, and an error in the middle.
+    Bytes burst;
+    const std::vector<std::pair<std::uint16_t, Bytes>> requests = {
+        {kStatus, {}}, {kSnapshot, u32Payload(20000)}, {kStatus, {}}, {0x0077, {}}, {kGetConfig, {}},
+        {kImages, imagesPayload(2, 1, 50)}, {kTargets, {}}, {kStatus, {0}}, {kStatus, {}}};
+    std::uint32_t id = 1000;
+    for (const auto& [type, payload] : requests) {
+        const Bytes f = frame(type, id++, payload);
+        burst.insert(burst.end(), f.begin(), f.end());
+    }
+    ASSERT_TRUE(c.send(burst));
+    const std::vector<std::uint16_t> expectedTypes = {0x8009, 0x8004, 0x8009, 0xFFFF, 0x8007,
+                                                      0x8008, 0x8005, 0xFFFF, 0x8009};
+    std::vector<RawFrame> replies;
+    for (std::size_t i = 0; i < requests.size(); ++i) {
+        replies.push_back(c.next());
+        EXPECT_EQ(replies.back().request, 1000 + i);
+        EXPECT_EQ(replies.back().type, expectedTypes[i])
+            << "reply " << i << (replies.back().type == 0xFFFF ? ": " + errorMessage(replies.back()) : "");
+    }
+    // Processed in order: the images and target data are the snapshot's.
+    EXPECT_EQ(replies[6].payload, replies[1].payload);
+    EXPECT_EQ(Fields(replies[5].payload).u64(), 1u);
+}
+
+TEST(TauNet, SearchingStartsAndStopsAndIsIdempotent) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    EXPECT_EQ(c.request(kStop, 1).bytes, frame(0x8003, 1));  // while idle: fine
+    EXPECT_EQ(c.request(kStart, 2).bytes, frame(0x8002, 2));
+    EXPECT_EQ(c.request(kStart, 3).bytes, frame(0x8002, 3));  // while searching: fine
+    ASSERT_TRUE(eventually([&] { return d.vision->status().iteration >= 2; }));
+    Fields s(c.request(kStatus, 4).payload);
+    EXPECT_EQ(s.u8(), 1);  // searching
+    EXPECT_EQ(c.request(kStop, 5).bytes, frame(0x8003, 5));
+    ASSERT_TRUE(eventually([&] { return d.vision->status().state == VisionState::Idle; }));
+    // A snapshot while searching is the next iteration's result.
+    EXPECT_EQ(c.request(kStart, 6).type, 0x8002);
+    const auto before = d.vision->status().iteration;
+    const VisionTargets t = tau::decodeTargetData(c.request(kSnapshot, 7, u32Payload(20000)).payload);
+    EXPECT_GT(t.iteration, before);
+    EXPECT_EQ(c.request(kStop, 8).type, 0x8003);
+}
+
+TEST(TauNet, ReplayEndsInAcquisitionFailedAndInvalidState) {
+    const std::filesystem::path session = std::filesystem::path(AVATAR_DATA_DIR) / "sessions" / "lab";
+    auto replay = std::make_unique<RawDataAcquire>(session);
+    const auto records = replay->reader().records();
+    ASSERT_EQ(records.size(), 3u);
+    const AvatarConfig config = readConfigString(*replay->reader().configXml(records.front().configVersion));
+    Daemon d({}, std::move(replay), config, session);
+    Client c(d.port());
+    ASSERT_TRUE(c.send(frame(kHello, 1, helloPayload())));
+    Bytes expected;
+    put16(expected, 1);
+    putStr(expected, "TAUNet");
+    putStr(expected, "replay");
+    EXPECT_EQ(c.next().bytes, frame(0x8001, 1, expected));
+
+    for (std::uint32_t i = 1; i <= 3; ++i) {
+        const RawFrame f = c.request(kSnapshot, 10 + i, u32Payload(30000));
+        ASSERT_EQ(f.type, 0x8004) << (f.type == 0xFFFF ? errorMessage(f) : "");
+        const VisionTargets t = tau::decodeTargetData(f.payload);
+        EXPECT_EQ(t.iteration, records[i - 1].iteration);
+        EXPECT_EQ(t.acquisition, records[i - 1].acquisition);
+    }
+    RawFrame f = c.request(kSnapshot, 20, u32Payload(30000));
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(errorCode(f), 8) << errorMessage(f);  // ACQUISITION_FAILED
+    EXPECT_FALSE(errorMessage(f).empty());
+    f = c.request(kStart, 21);
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(errorCode(f), 11) << errorMessage(f);  // INVALID_STATE
+    // The loop records the error just after failing the snapshot.
+    RawFrame status;
+    ASSERT_TRUE(eventually([&] {
+        Fields r((status = c.request(kStatus, 22)).payload);
+        r.u8();
+        return !r.str().empty();
+    }, 10s));
+    Fields s(status.payload);
+    s.u8();
+    EXPECT_FALSE(s.str().empty());  // the last error
+    s.u64();
+    EXPECT_EQ(s.u64(), records.back().iteration);
+    s.u32();
+    s.u64();
+    s.u64();
+    s.u64();
+    EXPECT_EQ(s.u8(), 3);  // acquisition finished
+}
+
+// ---- many clients, bad clients --------------------------------------------------
+
+TEST(TauNet, FiftyClientsPollTargetDataWhileSearching) {
+    Daemon d;
+    {
+        Client c(d.port());
+        c.hello();
+        ASSERT_EQ(c.request(kStart, 1).type, 0x8002);
+    }
+    ASSERT_TRUE(eventually([&] { return d.vision->status().iteration >= 1; }));
+    constexpr int kClients = 50;
+    std::atomic<int> failures{0};
+    std::vector<std::uint64_t> first(kClients), last(kClients), replies(kClients);
+    std::vector<std::string> problems(kClients);
+    std::vector<std::thread> threads;
+    const auto until = std::chrono::steady_clock::now() + 2s;
+    for (int i = 0; i < kClients; ++i) {
+        threads.emplace_back([&, i] {
+            try {
+                Client c(d.port());
+                c.hello();
+                std::uint32_t id = 10;
+                std::uint64_t previous = 0;
+                while (std::chrono::steady_clock::now() < until) {
+                    const RawFrame f = c.request(kTargets, id);
+                    if (f.type != 0x8005 || f.request != id) throw std::runtime_error("bad reply type or id");
+                    const VisionTargets t = tau::decodeTargetData(f.payload);
+                    if (t.iteration < previous) throw std::runtime_error("iteration went backwards");
+                    if (previous == 0) first[i] = t.iteration;
+                    previous = t.iteration;
+                    ++replies[i];
+                    ++id;
+                }
+                last[i] = previous;
+            } catch (const std::exception& e) {
+                problems[i] = e.what();
+                ++failures;
+            }
+        });
+    }
+    // Meanwhile another client is served too.
+    Client watcher(d.port());
+    watcher.hello();
+    EXPECT_EQ(watcher.request(kStatus, 1).type, 0x8009);
+    for (auto& t : threads) t.join();
+    EXPECT_EQ(failures.load(), 0);
+    for (int i = 0; i < kClients; ++i) {
+        EXPECT_TRUE(problems[i].empty()) << "client " << i << ": " << problems[i];
+        EXPECT_GE(replies[i], 10u) << "client " << i;
+        EXPECT_GE(first[i], 1u);
+        EXPECT_GE(last[i], first[i]);
+    }
+    EXPECT_GT(*std::max_element(last.begin(), last.end()), *std::min_element(first.begin(), first.end()))
+        << "the vision loop did not advance while being polled";
+    EXPECT_EQ(watcher.request(kStop, 2).type, 0x8003);
+}
+
+TEST(TauNet, ClientsVanishingMidFrameDoNotDisturbOthers) {
+    Daemon d;
+    Client good(d.port());
+    good.hello();
+    for (int i = 0; i < 10; ++i) {
+        Client c(d.port());
+        c.hello();
+        Bytes half = frame(kSendConfig, 5, strPayload(std::string(1000, 'x')));
+        half.resize(static_cast<std::size_t>(i == 0 ? 3 : 12 + i * 50));  // in the header, or in the payload
+        ASSERT_TRUE(c.send(half));
+        c.close();
+        EXPECT_EQ(good.request(kStatus, static_cast<std::uint32_t>(i)).type, 0x8009);
+    }
+    EXPECT_TRUE(eventually([&] { return d.server->stats().connections == 1; }, 5s));
+}
+
+TEST(TauNet, PartialFramesAreClosedAfterTheIdleTimeout) {
+    tau::TauNetOptions options;
+    options.idleTimeout = 300ms;
+    Daemon d(options);
+    Client good(d.port());
+    good.hello();
+    for (const std::size_t cut : {std::size_t{5}, std::size_t{12 + 40}}) {
+        Client c(d.port());
+        c.hello();
+        Bytes partial = frame(kSendConfig, 5, strPayload(std::string(100, 'x')));
+        partial.resize(cut);
+        ASSERT_TRUE(c.send(partial));
+        const auto start = std::chrono::steady_clock::now();
+        EXPECT_TRUE(c.closedWithin(5s)) << "cut " << cut;  // closed, no ERROR frame
+        const auto took = std::chrono::steady_clock::now() - start;
+        EXPECT_GE(took, 250ms);
+        EXPECT_LT(took, 3s);
+        EXPECT_EQ(good.request(kStatus, 1).type, 0x8009);
+    }
+    // A connection without a partial frame is not idle-closed.
+    Client quiet(d.port());
+    quiet.hello();
+    std::this_thread::sleep_for(600ms);
+    EXPECT_EQ(quiet.request(kStatus, 2).type, 0x8009);
+    EXPECT_EQ(d.server->stats().idleTimeouts, 2u);
+}
+
+TEST(TauNet, AClientThatNeverReadsIsDisconnectedAndOthersAreServed) {
+    tau::TauNetOptions options;
+    options.maxSendQueueBytes = 256 * 1024;
+    Daemon d(options);
+    Client good(d.port());
+    good.hello();
+    Client slow(d.port());
+    slow.hello();
+    // Tens of megabytes of GET_CONFIG replies asked for, none read.
+    Bytes burst;
+    for (std::uint32_t i = 0; i < 2000; ++i) {
+        const Bytes f = frame(kGetConfig, i);
+        burst.insert(burst.end(), f.begin(), f.end());
+    }
+    std::atomic<bool> writing{true};
+    std::thread writer([&] {
+        const auto until = std::chrono::steady_clock::now() + 20s;
+        while (std::chrono::steady_clock::now() < until && d.server->stats().slowClients == 0)
+            if (!slow.send(burst)) break;  // the server hung up
+        writing = false;
+    });
+    // Meanwhile others are served as usual.
+    std::uint32_t id = 1;
+    bool served = true;
+    while (writing && served && id < 100000) served = good.request(kStatus, id++).type == 0x8009;
+    EXPECT_TRUE(served);
+    writer.join();
+    EXPECT_EQ(d.server->stats().slowClients, 1u);
+    std::size_t received = 0;
+    EXPECT_TRUE(slow.closedWithin(20s, &received));  // what was sent arrives, then the close
+    EXPECT_GT(received, 0u);
+    EXPECT_EQ(good.request(kStatus, id).type, 0x8009);
+    EXPECT_TRUE(eventually([&] { return d.server->stats().connections == 1; }, 5s));
+}
+
+TEST(TauNet, StopClosesEveryConnection) {
+    auto d = std::make_unique<Daemon>();
+    Client a(d->port()), b(d->port());
+    a.hello();
+    b.hello();
+    d->server->stop();
+    EXPECT_TRUE(a.closedWithin(5s));
+    EXPECT_TRUE(b.closedWithin(5s));
+    d->server->wait();
+    EXPECT_TRUE(d->server->stopped());
+    boost::asio::io_context io;
+    tcp::socket s(io);
+    boost::system::error_code ec;
+    s.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), d->port()), ec);
+    EXPECT_TRUE(ec) << "still accepting after stop";
+}
+
+TEST(TauNet, OptionsAreCheckedAndABusyPortIsAnIoError) {
+    VisionInterface vision(simulation(), simConfig());
+    tau::TauNetOptions bad;
+    bad.workerThreads = 0;
+    std::string why;
+    EXPECT_FALSE(bad.isValid(&why));
+    EXPECT_NE(why.find("workerThreads"), std::string::npos);
+    EXPECT_THROW(tau::TauNetServer(vision, bad), InvalidArgument);
+
+    tau::TauNetOptions first;
+    first.port = 0;
+    tau::TauNetServer a(vision, first);
+    EXPECT_EQ(a.address(), "127.0.0.1");
+    tau::TauNetOptions same;
+    same.port = a.port();
+    EXPECT_THROW(tau::TauNetServer(vision, same), IoError);
+    tau::TauNetOptions nowhere;
+    nowhere.listenAddress = "203.0.113.7";  // TEST-NET-3: not an address of this machine
+    nowhere.port = 0;
+    EXPECT_THROW(tau::TauNetServer(vision, nowhere), IoError);
+}
+
+// ---- the executable ---------------------------------------------------------------
+
+namespace {
+
+struct Child {
+    pid_t pid{-1};
+    int out{-1};
+};
+
+Child spawnTaunet(const std::vector<std::string>& args, const std::string& stderrPath) {
+    int pipeFds[2];
+    if (::pipe(pipeFds) != 0) throw std::runtime_error("pipe");
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, pipeFds[1], STDOUT_FILENO);
+    posix_spawn_file_actions_addclose(&actions, pipeFds[0]);
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, stderrPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
+    std::vector<std::string> all = {TAUNET_EXECUTABLE};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    Child c;
+    const int rc = posix_spawn(&c.pid, TAUNET_EXECUTABLE, &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(pipeFds[1]);
+    if (rc != 0) throw std::runtime_error("posix_spawn failed");
+    c.out = pipeFds[0];
+    return c;
+}
+
+/// Reads the child's stdout until @p pattern matches or the time is up.
+std::optional<std::smatch> readUntil(int fd, const std::regex& pattern, std::string& text,
+                                     std::chrono::milliseconds limit) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < end) {
+        std::smatch m;
+        if (std::regex_search(text, m, pattern)) return m;
+        pollfd p{fd, POLLIN, 0};
+        if (::poll(&p, 1, 100) > 0) {
+            char buf[512];
+            const ssize_t n = ::read(fd, buf, sizeof buf);
+            if (n <= 0) break;
+            text.append(buf, static_cast<std::size_t>(n));
+        }
+    }
+    std::smatch m;
+    if (std::regex_search(text, m, pattern)) return m;
+    return std::nullopt;
+}
+
+/// waitpid with a deadline; kills the child if it does not exit in time.
+std::optional<int> waitExit(pid_t pid, std::chrono::milliseconds limit) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    int status = 0;
+    while (std::chrono::steady_clock::now() < end) {
+        if (::waitpid(pid, &status, WNOHANG) == pid) return status;
+        std::this_thread::sleep_for(20ms);
+    }
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+    return std::nullopt;
+}
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+TEST(TauNetDaemon, SigtermShutsDownCleanly) {
+    const std::string errPath = ::testing::TempDir() + "taunet_sigterm.log";
+    Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
+                               "--port", "0", "--log", "info"},
+                              errPath);
+    std::string out;
+    const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
+    if (!m) {
+        waitExit(child.pid, 0ms);
+        FAIL() << "no 'listening on' line; stdout: " << out << "\nstderr: " << slurp(errPath);
+    }
+    const auto port = static_cast<std::uint16_t>(std::stoi((*m)[1].str()));
+    Client c(port);
+    ASSERT_TRUE(c.send(frame(kHello, 1, helloPayload())));
+    Bytes expected;
+    put16(expected, 1);
+    putStr(expected, "TAUNet");
+    putStr(expected, "replay");
+    EXPECT_EQ(c.next().bytes, frame(0x8001, 1, expected));
+    const RawFrame snap = c.request(kSnapshot, 2, u32Payload(30000));
+    EXPECT_EQ(snap.type, 0x8004) << (snap.type == 0xFFFF ? errorMessage(snap) : "");
+    EXPECT_EQ(c.request(kStart, 3).type, 0x8002);
+
+    ASSERT_EQ(::kill(child.pid, SIGTERM), 0);
+    EXPECT_TRUE(c.closedWithin(10s, nullptr));
+    const auto status = waitExit(child.pid, 15s);
+    ::close(child.out);
+    ASSERT_TRUE(status.has_value()) << "taunet did not exit after SIGTERM; stderr: " << slurp(errPath);
+    ASSERT_TRUE(WIFEXITED(*status)) << "signalled: " << WTERMSIG(*status);
+    EXPECT_EQ(WEXITSTATUS(*status), 0) << slurp(errPath);
+    const std::string log = slurp(errPath);
+    EXPECT_NE(log.find("SIGTERM received"), std::string::npos) << log;
+    EXPECT_NE(log.find("vision stopped"), std::string::npos) << log;
+}
+
+TEST(TauNetDaemon, BackendThatCannotStartIsAClearError) {
+    const std::string errPath = ::testing::TempDir() + "taunet_backend.log";
+    struct Case {
+        std::vector<std::string> args;
+        int exitCode;
+        std::string says;
+    };
+    const std::vector<Case> cases = {
+        // No cameras here (and none named in the sample configuration): a clear error, no fallback.
+        {{"--backend", "genicam", "--config", std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml", "--port", "0"},
+         1, "leftCameraId"},
+        {{"--backend", "firewire", "--config", std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml", "--port", "0"},
+         1, "leftCameraId"},
+        {{"--backend", "simulation", "--config", std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml", "--port",
+          "0"},
+         1, "--scene FILE"},
+        {{"--backend", "carrier-pigeon", "--port", "0"}, 1, "unknown backend 'carrier-pigeon'"},
+        {{"--backend", "replay", "--port", "0"}, 1, "--session DIR"},
+        {{"--port", "0"}, 2, "--backend is required"},
+        {{"--backend", "replay", "--bogus"}, 2, "bogus"},
+    };
+    for (const Case& k : cases) {
+        Child child = spawnTaunet(k.args, errPath);
+        std::string out;
+        readUntil(child.out, std::regex("listening"), out, 2s);
+        const auto status = waitExit(child.pid, 20s);
+        ::close(child.out);
+        ASSERT_TRUE(status.has_value()) << k.says;
+        ASSERT_TRUE(WIFEXITED(*status)) << k.says;
+        EXPECT_EQ(WEXITSTATUS(*status), k.exitCode) << k.says;
+        EXPECT_EQ(out.find("listening"), std::string::npos) << k.says;
+        EXPECT_NE(slurp(errPath).find(k.says), std::string::npos) << slurp(errPath);
+    }
+}
