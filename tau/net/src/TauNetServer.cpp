@@ -439,6 +439,9 @@ ServerCore::ServerCore(VisionInterface& v, TauNetOptions o)
         throw IoError("cannot listen on " + where + ": " + e.code().message());
     }
     log().notice("listening on %s (backend %s)", describe(endpoint).c_str(), handler.backend().c_str());
+    if (!endpoint.address().is_loopback())
+        log().warn("listening on %s: reachable from other machines; the TAU protocol has no authentication",
+                   describe(endpoint).c_str());
     accept();
     for (std::size_t i = 0; i < options.networkThreads; ++i)
         threads.emplace_back([this] {
