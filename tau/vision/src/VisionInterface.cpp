@@ -1,5 +1,6 @@
 #include <avatar/tau/VisionInterface.h>
 
+#include <avatar/acquire/SessionRecorder.h>
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/Logging.h>
 #include <avatar/config/ConfigXml.h>
@@ -46,6 +47,14 @@ public:
         if (!backend_) throw InvalidArgument("VisionInterface: no acquisition backend");
         backendName_ = backend_->name();
         install(config);  // throws: nothing started yet
+        if (options_.recordDirectory) {
+            SessionRecorderOptions recorderOptions;
+            recorderOptions.queueCapacity = options_.recordQueue;
+            recorder_ = std::make_unique<SessionRecorder>(
+                std::make_unique<SessionLogSink>(*options_.recordDirectory,
+                                                 options_.recordPng ? Compression::Png : Compression::None),
+                recorderOptions);
+        }
         thread_ = std::thread([this] { run(); });
     }
 
@@ -56,6 +65,7 @@ public:
         }
         wake_.notify_all();
         thread_.join();
+        if (recorder_) recorder_->flush();
     }
 
     void startSearching() {
@@ -145,8 +155,19 @@ public:
         return config_;
     }
     VisionStatus status() const {
-        std::lock_guard<std::mutex> lock(mutex_);
-        return status_;
+        VisionStatus s;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            s = status_;
+        }
+        if (recorder_) {
+            const SessionRecorderStatus r = recorder_->status();
+            s.recordBacklog = r.backlog;
+            s.recorded = r.recorded;
+            s.unrecorded = r.unrecorded();
+            s.recordError = r.lastError;
+        }
+        return s;
     }
     std::string backendName() const { return backendName_; }
 
@@ -183,6 +204,18 @@ private:
         }
         VisionTargets result = analyzer_->analyze(acquired.pair, iteration);
         auto frame = std::make_shared<const AnalysisFrame>(analyzer_->lastFrame());
+        if (recorder_) {
+            // Never blocks: a full queue is counted and reported by the recorder.
+            std::uint32_t version;
+            std::optional<std::string> xml;
+            {
+                std::lock_guard<std::mutex> lock(mutex_);
+                version = status_.configVersion;
+                if (version != recordedVersion_) xml = configXml_;
+            }
+            recordedVersion_ = version;
+            recorder_->record(acquired.pair, iteration, version, std::move(xml), result);
+        }
         std::lock_guard<std::mutex> lock(mutex_);
         latest_ = result;
         frame_ = std::move(frame);
@@ -215,13 +248,16 @@ private:
             auto waiting = std::move(snapshots_);
             snapshots_.clear();
             lock.unlock();
+            // The state is settled before any snapshot caller is released, so a
+            // caller that asks for the status right after its snapshot sees the
+            // state that follows it (idle after a lone snapshot), never a stale one.
             try {
                 const VisionTargets result = iterate();
-                for (auto& p : waiting) p.set_value(result);
                 lock.lock();
+                if (!searching_ && snapshots_.empty()) status_.state = VisionState::Idle;
+                for (auto& p : waiting) p.set_value(result);
             } catch (const std::exception& e) {
                 const auto backendStatus = backend_->status();
-                for (auto& p : waiting) p.set_exception(std::current_exception());
                 lock.lock();
                 status_.acquisition = backendStatus;
                 status_.error = e.what();
@@ -232,6 +268,9 @@ private:
                 } else if (backendStatus.state == AcquisitionStatus::State::Finished) {
                     searching_ = false;
                 }
+                if (status_.state != VisionState::Error && !searching_ && snapshots_.empty())
+                    status_.state = VisionState::Idle;
+                for (auto& p : waiting) p.set_exception(std::current_exception());
             }
             if (searching_ && options_.searchPeriod.count() > 0)
                 wake_.wait_for(lock, options_.searchPeriod, [this] { return stop_ || !commands_.empty(); });
@@ -245,6 +284,8 @@ private:
     std::unique_ptr<AnalyzeStereoImagePair> analyzer_;
     const VisionOptions options_;
     std::string backendName_;
+    std::uint32_t recordedVersion_{0};  ///< configuration version of the last recorded pair
+    std::unique_ptr<SessionRecorder> recorder_;  ///< thread-safe itself
 
     // Shared, guarded by mutex_.
     mutable std::mutex mutex_;

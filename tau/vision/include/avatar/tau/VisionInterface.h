@@ -48,6 +48,10 @@ struct VisionStatus {
     AcquisitionStatus acquisition;       ///< the backend's own health
     Visibility visibility{Visibility::Unknown};
     std::string visibilityReason;
+    std::uint64_t recordBacklog{0};      ///< pairs waiting to be written
+    std::uint64_t recorded{0};           ///< pairs written to the session log
+    std::uint64_t unrecorded{0};         ///< pairs that could not be recorded (queue full or disk error)
+    std::string recordError;             ///< why the last pair was not recorded, if any
 };
 
 /// Which images a client asks for.
@@ -60,6 +64,13 @@ struct VisionImages {
 };
 
 struct VisionOptions {
+    /// Record every acquired pair and its result into this new session
+    /// directory (docs/formats.md); unset: no recording.
+    std::optional<std::filesystem::path> recordDirectory;
+    /// Pairs that may wait for the disk; when full, pairs are not recorded and
+    /// are counted (VisionStatus::unrecorded), never silently lost.
+    std::size_t recordQueue{8};
+    bool recordPng{false};  ///< archive pairs as 16-bit PNG instead of raw
     /// Where relative paths of the configuration are resolved (lighting template).
     std::filesystem::path configDirectory;
     /// Pause between iterations while searching (0: as fast as the backend delivers).
@@ -68,12 +79,14 @@ struct VisionOptions {
 
 class VisionInterface {
 public:
-    /// Takes ownership of @p backend, applies @p config to it and builds the
-    /// analysis. Throws (ConfigError, InvalidArgument, AcquisitionError) when
-    /// either cannot be set up. Starts the vision thread, idle.
+    /// Takes ownership of @p backend, applies @p config to it, builds the
+    /// analysis and opens the recording. Throws (ConfigError, InvalidArgument,
+    /// AcquisitionError, IoError) when any cannot be set up. Starts the vision
+    /// thread, idle.
     VisionInterface(std::unique_ptr<AcquireStereoImagePair> backend, const AvatarConfig& config,
                     VisionOptions options = {});
-    /// Stops the vision thread, finishing the current iteration.
+    /// Stops the vision thread, finishing the current iteration, then writes
+    /// what the recorder still holds.
     ~VisionInterface();
     VisionInterface(const VisionInterface&) = delete;
     VisionInterface& operator=(const VisionInterface&) = delete;
