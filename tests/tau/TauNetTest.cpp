@@ -1013,6 +1013,54 @@ TEST(TauNet, AClientThatNeverReadsIsDisconnectedAndOthersAreServed) {
     EXPECT_TRUE(eventually([&] { return d.server->stats().connections == 1; }, 5s));
 }
 
+TEST(TauNet, StatusReportsTheRecording) {
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / ("taunet_status_record_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    {
+        auto vision = [&] {
+            VisionOptions vo;
+            vo.recordDirectory = dir;
+            return std::make_unique<VisionInterface>(simulation(), simConfig(), vo);
+        }();
+        tau::TauNetOptions options;
+        options.port = 0;
+        tau::TauNetServer server(*vision, options);
+        Client c(server.port());
+        c.hello();
+        ASSERT_EQ(c.request(kSnapshot, 1, u32Payload(20000)).type, 0x8004);
+        ASSERT_EQ(c.request(kSnapshot, 2, u32Payload(20000)).type, 0x8004);
+        std::uint64_t recorded = 0, unrecorded = 0;
+        std::string error = "?";
+        ASSERT_TRUE(eventually([&] {
+            Fields s(c.request(kStatus, 3).payload);
+            s.u8();
+            s.str();
+            s.u64();  // heartbeat
+            s.u64();  // iteration
+            s.u32();  // configVersion
+            s.u64();  // configIteration
+            s.u64();  // targetsIteration
+            s.u64();  // imagesIteration
+            s.u8();
+            s.str();
+            s.u8();
+            s.str();
+            s.u64();  // backlog
+            recorded = s.u64();
+            unrecorded = s.u64();
+            error = s.str();
+            return recorded == 2;
+        }, 10s)) << "recorded " << recorded;
+        EXPECT_EQ(unrecorded, 0u);
+        EXPECT_EQ(error, "");
+        server.stop();
+        server.wait();
+    }
+    EXPECT_TRUE(std::filesystem::exists(dir / "session.log"));
+    std::filesystem::remove_all(dir);
+}
+
 TEST(TauNet, StopClosesEveryConnection) {
     auto d = std::make_unique<Daemon>();
     Client a(d->port()), b(d->port());
@@ -1128,8 +1176,11 @@ std::string slurp(const std::string& path) {
 
 TEST(TauNetDaemon, SigtermShutsDownCleanly) {
     const std::string errPath = ::testing::TempDir() + "taunet_sigterm.log";
+    const std::filesystem::path recording =
+        std::filesystem::path(::testing::TempDir()) / ("taunet_record_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(recording);
     Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
-                               "--port", "0", "--log", "info"},
+                               "--port", "0", "--log", "info", "--record", recording.string()},
                               errPath);
     std::string out;
     const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
@@ -1148,6 +1199,19 @@ TEST(TauNetDaemon, SigtermShutsDownCleanly) {
     const RawFrame snap = c.request(kSnapshot, 2, u32Payload(30000));
     EXPECT_EQ(snap.type, 0x8004) << (snap.type == 0xFFFF ? errorMessage(snap) : "");
     EXPECT_EQ(c.request(kStart, 3).type, 0x8002);
+    // Searching replays the other two pairs of the session, then the source is finished.
+    EXPECT_TRUE(eventually([&] {
+        Fields s(c.request(kStatus, 4).payload);
+        s.u8();
+        s.str();
+        s.u64();
+        const std::uint64_t iteration = s.u64();
+        s.u32();
+        s.u64();
+        s.u64();
+        s.u64();
+        return iteration == 3 && s.u8() == 3;
+    }, 20s));
 
     ASSERT_EQ(::kill(child.pid, SIGTERM), 0);
     EXPECT_TRUE(c.closedWithin(10s, nullptr));
@@ -1159,6 +1223,12 @@ TEST(TauNetDaemon, SigtermShutsDownCleanly) {
     const std::string log = slurp(errPath);
     EXPECT_NE(log.find("SIGTERM received"), std::string::npos) << log;
     EXPECT_NE(log.find("vision stopped"), std::string::npos) << log;
+
+    // Everything analysed was recorded and written out before the exit: a
+    // header line and the three pairs of the lab session.
+    const std::string recorded = slurp((recording / "session.log").string());
+    EXPECT_EQ(std::count(recorded.begin(), recorded.end(), '\n'), 4) << recorded.substr(0, 200);
+    std::filesystem::remove_all(recording);
 }
 
 TEST(TauNetDaemon, BackendThatCannotStartIsAClearError) {

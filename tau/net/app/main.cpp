@@ -65,6 +65,8 @@ int main(int argc, char** argv) {
         ("listen", po::value<std::string>()->default_value("127.0.0.1"),
             "address to listen on; anything but a loopback address exposes the vision system to the network")
         ("port,p", po::value<unsigned>()->default_value(7010), "TCP port; 0 picks a free one (printed on stdout)")
+        ("record", po::value<std::string>(), "record every pair and its result into this new session directory")
+        ("record-png", "record: archive pairs as 16-bit PNG instead of raw files")
         ("period", po::value<unsigned>()->default_value(0), "pause between iterations while searching, ms")
         ("workers", po::value<unsigned>()->default_value(4), "threads for snapshots, configurations and images")
         ("max-clients", po::value<unsigned>()->default_value(256), "simultaneous connections")
@@ -127,6 +129,13 @@ int main(int argc, char** argv) {
         VisionOptions visionOptions;
         visionOptions.configDirectory = backend.configDirectory;
         visionOptions.searchPeriod = std::chrono::milliseconds(vm["period"].as<unsigned>());
+        if (vm.count("record")) {
+            visionOptions.recordDirectory = vm["record"].as<std::string>();
+            visionOptions.recordPng = vm.count("record-png") > 0;
+            log.notice("recording into %s", visionOptions.recordDirectory->string().c_str());
+        } else if (vm.count("record-png")) {
+            throw InvalidArgument("--record-png needs --record DIR");
+        }
         auto vision = std::make_unique<VisionInterface>(std::move(backend.acquisition), backend.config, visionOptions);
 
         tau::TauNetServer server(*vision, serverOptions);

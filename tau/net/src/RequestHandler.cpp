@@ -89,6 +89,10 @@ StatusReply statusReply(const VisionStatus& status, const std::string& backend) 
     r.acquisitionMessage = status.acquisition.message;
     r.visibility = visibilityCode(status.visibility);
     r.visibilityReason = status.visibilityReason;
+    r.recordBacklog = status.recordBacklog;
+    r.recorded = status.recorded;
+    r.unrecorded = status.unrecorded;
+    r.recordError = status.recordError;
     r.backend = backend;
     return r;
 }

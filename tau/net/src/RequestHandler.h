@@ -22,8 +22,7 @@ std::uint8_t acquisitionCode(AcquisitionStatus::State state);
 std::uint8_t visibilityCode(Visibility visibility);
 ImageKind imageKind(ImageKindCode code);
 
-/// The Status payload of a VisionStatus. The recorder fields stay 0/empty:
-/// VisionInterface has no recorder yet.
+/// The Status payload of a VisionStatus (recorder fields 0/empty when not recording).
 StatusReply statusReply(const VisionStatus& status, const std::string& backend);
 
 /// The requested sides of @p images as JPEG (Bayer demosaiced, 16-bit scaled
