@@ -55,10 +55,5 @@ if [ "$mode" = test ]; then
   exit $?
 fi
 
-session="$root/data/sessions/lab"
-echo "== main job, 1/2: the sample configuration and the first pair of the bundled session"
-"$build/tools/avatar-info/avatar-info" --config "$root/data/config/scorpion.xml" \
-    --left "$session/L_00001_00000_1280x960_16b_1c_BG_le.png" \
-    --right "$session/R_00001_00000_1280x960_16b_1c_BG_le.png"
-echo "== main job, 2/2: analysis of the bundled session (marked images in $build/demo)"
-"$build/tools/avatar-analyze/avatar-analyze" --session "$session" --marked "$build/demo"
+echo "== main job: TAUNet replays the bundled session, a TAUUnit client takes a snapshot"
+exec bash "$root/tools/scripts/main-job.sh" "$build" "$build/demo"
