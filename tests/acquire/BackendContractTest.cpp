@@ -405,8 +405,8 @@ public:
         c.camera.width = which == 0 ? 64 : 80;
         c.camera.height = which == 0 ? 48 : 60;
         c.camera.bitDepth = which == 0 ? 16 : 12;
-        c.camera.bayer = true;
-        c.camera.bayerPattern = which == 0 ? BayerPattern::BG : BayerPattern::GR;
+        c.camera.bayer = which == 0;  // the changed configuration is a mono sensor
+        c.camera.bayerPattern = BayerPattern::BG;
         c.camera.leftCameraId = "0x00b09d01004a2c1f";  // not used by the simulation (see BackendCase)
         c.camera.rightCameraId = "0x00b09d01004a2c20";
         return c;

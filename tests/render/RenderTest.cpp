@@ -103,6 +103,31 @@ TEST(Render, UniformFieldHasTheExpectedValuesInEveryBayerPattern) {
     }
 }
 
+TEST(Render, MonoSensorIsTheMeanOfTheBands) {
+    const Scene scene = test::flatScene({0.5, 0.3, 0.2}, 0.8);
+    auto options = test::noiseFree(64, 48);
+    options.sensor.format = PixelFormat::Mono;
+    const auto result = render::render(scene, test::scorpion(), options);
+    ASSERT_EQ(result.pair.cvType(), CV_16UC1);
+    EXPECT_EQ(result.pair.layout().format, PixelFormat::Mono);
+    // Radiance (0.4, 0.24, 0.16) of full scale: a panchromatic pixel sees their mean.
+    const double expected = std::round((0.4 + 0.24 + 0.16) / 3.0 * 65535.0);
+    double minV, maxV;
+    cv::minMaxLoc(result.pair.left(), &minV, &maxV);
+    EXPECT_EQ(minV, expected);
+    EXPECT_EQ(maxV, expected);
+
+    // A camera configuration that says mono (one channel, no mosaic) gives a mono sensor.
+    CameraHardwareConfig camera;
+    camera.channels = 1;
+    camera.bayer = false;
+    EXPECT_EQ(render::sensorFormatFrom(camera).format, PixelFormat::Mono);
+    camera.bayer = true;
+    EXPECT_EQ(render::sensorFormatFrom(camera).format, PixelFormat::Bayer);
+    camera.channels = 3;
+    EXPECT_EQ(render::sensorFormatFrom(camera).format, PixelFormat::Bgr);
+}
+
 TEST(Render, LambertianLightAtTheCameraStrobeAndWater) {
     Scene scene = test::flatScene({0.6, 0.5, 0.4}, 0.0);
     scene.lighting.lightIntensity = {1.0, 1.0, 1.0};

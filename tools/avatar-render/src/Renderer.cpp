@@ -21,7 +21,7 @@ SensorFormat sensorFormatFrom(const CameraHardwareConfig& camera) {
     f.width = camera.width;
     f.height = camera.height;
     f.bitDepth = camera.bitDepth;
-    f.format = camera.channels == 3 ? PixelFormat::Bgr : PixelFormat::Bayer;
+    f.format = camera.channels == 3 ? PixelFormat::Bgr : camera.bayer ? PixelFormat::Bayer : PixelFormat::Mono;
     f.bayerPattern = camera.bayerPattern;
     f.fileByteOrder = camera.endianSwap ? ByteOrder::Big : ByteOrder::Little;
     return f;
@@ -37,8 +37,8 @@ void RenderOptions::validate() const {
         fail("sensor.height", "expected 2..16384, got " + std::to_string(sensor.height));
     if (sensor.bitDepth < 1 || sensor.bitDepth > 16)
         fail("sensor.bitDepth", "expected 1..16, got " + std::to_string(sensor.bitDepth));
-    if (sensor.format != PixelFormat::Bayer && sensor.format != PixelFormat::Bgr)
-        fail("sensor.format", "expected bayer or bgr, got " + std::string(avatar::toString(sensor.format)));
+    if (sensor.format != PixelFormat::Bayer && sensor.format != PixelFormat::Bgr && sensor.format != PixelFormat::Mono)
+        fail("sensor.format", "expected bayer, bgr or mono, got " + std::string(avatar::toString(sensor.format)));
     if (supersampling < 1 || supersampling > 16)
         fail("supersampling", "expected 1..16, got " + std::to_string(supersampling));
 }
@@ -596,36 +596,50 @@ cv::Mat digitize(const cv::Mat& radiance, const Scene& scene, const RenderOption
     const bool shotNoise = options.noise && sn.shotNoise;
     std::normal_distribution<double> gauss(0.0, 1.0);
     const int depth = f.bitDepth > 8 ? CV_16U : CV_8U;
-    const bool bayer = f.format == PixelFormat::Bayer;
-    cv::Mat image(radiance.size(), CV_MAKETYPE(depth, bayer ? 1 : 3));
+    const bool colour = f.format == PixelFormat::Bgr;
+    cv::Mat image(radiance.size(), CV_MAKETYPE(depth, colour ? 3 : 1));
 
-    auto value = [&](double r, int channel, int x, int y) {
-        double signal = r * sn.exposure;
+    // Light reaching the pixel (strobe falloff included), relative to full well.
+    auto signal = [&](double r, int channel, int x, int y) {
+        double s = r * sn.exposure;
         if (strobe.enabled) {
             const double d = std::hypot(x - strobe.centrePx[0], y - strobe.centrePx[1]);
             const auto& ch = strobe.rgb[static_cast<std::size_t>(channel)];
-            signal *= ch.coefficient * std::exp(ch.exponent * d);
+            s *= ch.coefficient * std::exp(ch.exponent * d);
         }
-        double electrons = signal * sn.fullWellElectrons;
+        return s;
+    };
+    auto digital = [&](double s) {
+        double electrons = s * sn.fullWellElectrons;
         if (shotNoise) electrons += std::sqrt(std::max(electrons, 0.0)) * gauss(rng);
         double dn = electrons / sn.fullWellElectrons * maxDn + sn.blackLevelDn;
         if (readNoise) dn += sn.readNoiseDn * gauss(rng);
         return std::clamp(std::round(dn), 0.0, maxDn);
     };
+    auto store1 = [&](int x, int y, double v) {
+        if (depth == CV_16U) image.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(v);
+        else image.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
+    };
     for (int y = 0; y < radiance.rows; ++y) {
         const auto* in = radiance.ptr<cv::Vec3d>(y);
         for (int x = 0; x < radiance.cols; ++x) {
-            if (bayer) {
-                const int c = bayerChannel(f.bayerPattern, x, y);
-                const double v = value(in[x][c], c, x, y);
-                if (depth == CV_16U) image.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(v);
-                else image.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
-            } else {
-                for (int c = 0; c < 3; ++c) {  // BGR order in the image
-                    const double v = value(in[x][c], c, x, y);
-                    if (depth == CV_16U) image.at<cv::Vec3w>(y, x)[2 - c] = static_cast<std::uint16_t>(v);
-                    else image.at<cv::Vec3b>(y, x)[2 - c] = static_cast<std::uint8_t>(v);
+            switch (f.format) {
+                case PixelFormat::Bayer: {
+                    const int c = bayerChannel(f.bayerPattern, x, y);
+                    store1(x, y, digital(signal(in[x][c], c, x, y)));
+                    break;
                 }
+                case PixelFormat::Mono:  // a panchromatic pixel: the mean of the three bands
+                    store1(x, y, digital((signal(in[x][0], 0, x, y) + signal(in[x][1], 1, x, y) +
+                                          signal(in[x][2], 2, x, y)) / 3.0));
+                    break;
+                case PixelFormat::Bgr:
+                    for (int c = 0; c < 3; ++c) {  // BGR order in the image
+                        const double v = digital(signal(in[x][c], c, x, y));
+                        if (depth == CV_16U) image.at<cv::Vec3w>(y, x)[2 - c] = static_cast<std::uint16_t>(v);
+                        else image.at<cv::Vec3b>(y, x)[2 - c] = static_cast<std::uint8_t>(v);
+                    }
+                    break;
             }
         }
     }

@@ -34,13 +34,16 @@ public:
     void setScene(Scene scene);
     /// The ground truth of the last grab. Thread-safe.
     GroundTruth lastTruth() const;
-    /// The camera ids the simulated pairs carry.
+    /// The camera ids the simulated pairs carry (default "sim-left",
+    /// "sim-right"). The configuration's camera ids name hardware the
+    /// simulation does not have, so they are not adopted: a recording made in
+    /// simulation can never be mistaken for one made with the real cameras.
     void setCameraIds(std::string left, std::string right);
 
 protected:
     AcquiredPair grab() override;
     /// Adopts the image format of the configuration's camera (size, bit depth,
-    /// Bayer pattern); the true calibration does not change.
+    /// mosaic or mono or colour, Bayer pattern); the true calibration does not change.
     void configure(const AvatarConfig& config) override;
 
 private:

@@ -33,7 +33,7 @@ struct SensorFormat {
     int width{1280};
     int height{960};
     int bitDepth{16};                       ///< 1..16; <= 8 gives 8-bit images
-    PixelFormat format{PixelFormat::Bayer}; ///< Bayer or Bgr
+    PixelFormat format{PixelFormat::Bayer}; ///< Bayer, Bgr or Mono (panchromatic: the mean of the bands)
     BayerPattern bayerPattern{BayerPattern::BG};
     ByteOrder fileByteOrder{ByteOrder::Little};  ///< of the raw files (images in memory are host order)
 };
