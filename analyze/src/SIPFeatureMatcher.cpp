@@ -38,6 +38,9 @@ struct ShapeDescriptor {
     std::array<double, kPairs> directionX{};
     std::array<double, kPairs> directionY{};
     double magnitudeSum{0.0};
+    /// Sum of the unit vectors S over the 36 pairs, for shapeErrorLowerBound().
+    double directionSumX{0.0};
+    double directionSumY{0.0};
 };
 
 ShapeDescriptor describe(const Feature& feature) {
@@ -57,25 +60,76 @@ ShapeDescriptor describe(const Feature& feature) {
                 d.directionY[k] = dy * inverse;
             }
             d.magnitudeSum += m;
+            d.directionSumX += d.directionX[k];
+            d.directionSumY += d.directionY[k];
         }
     return d;
 }
 
+/// The shape error of Figure 3-14 (see shapeError() in the header). With a
+/// @p limit, the pairs are summed in the same order, but when the error of
+/// the pairs summed so far exceeds the limit, the sum stops and that partial
+/// error is returned: the final error would be at least as large (every term
+/// is non-negative and rounding is monotonic, so a partial sum never exceeds
+/// the full one). Either way, the result exceeds the limit exactly when the
+/// error does, and otherwise is the error, bit for bit.
 double shapeErrorOf(const ShapeDescriptor& a, const ShapeDescriptor& b,
-                    const ShapeMatchConfig& weights) {
+                    const ShapeMatchConfig& weights,
+                    double limit = std::numeric_limits<double>::infinity()) {
+    // sum|dM| / (0.5 (sum M_a + sum M_b)) = mean|dM| / mean of the two mean distances.
+    const double scale = 0.5 * (a.magnitudeSum + b.magnitudeSum);
     double magnitudeDiff = 0.0;
     double directionDiff = 0.0;
+    const auto error = [&] {
+        const double magnitudeTerm = scale > 0.0 ? magnitudeDiff / scale : 0.0;
+        const double directionTerm = directionDiff / static_cast<double>(kPairs);
+        return weights.magnitudeWeight * magnitudeTerm + weights.directionWeight * directionTerm;
+    };
     for (std::size_t k = 0; k < kPairs; ++k) {
         magnitudeDiff += std::abs(a.magnitude[k] - b.magnitude[k]);
         const double ux = a.directionX[k] - b.directionX[k];
         const double uy = a.directionY[k] - b.directionY[k];
         directionDiff += std::sqrt(ux * ux + uy * uy);
+        if (k % 9 == 8 && k + 1 < kPairs) {  // after 9, 18 and 27 of the 36 pairs
+            const double partial = error();
+            if (partial > limit) return partial;
+        }
     }
-    // sum|dM| / (0.5 (sum M_a + sum M_b)) = mean|dM| / mean of the two mean distances.
+    return error();
+}
+
+/// A lower bound of shapeErrorOf(a, b, weights) for one square root instead
+/// of 36: by the triangle inequality
+///   sum_k |M_a,k - M_b,k| >= |sum_k M_a,k - sum_k M_b,k|   and
+///   sum_k |S_a,k - S_b,k| >= |sum_k S_a,k - sum_k S_b,k|   (2-vectors),
+/// so the error is at least
+///   magnitudeWeight * |sum M_a - sum M_b| / (0.5 (sum M_a + sum M_b))
+///   + directionWeight * |sum S_a - sum S_b| / 36:
+/// a difference in size, or in the mean direction of the point pairs (a
+/// rotated or differently proportioned outline). Look-alike targets get a
+/// bound near 0 and are told apart by the shape error itself.
+///
+/// Both this bound and shapeErrorOf() round, in different orders. Each of
+/// their terms lies in [0, 2] and is computed to within 1e-13 of its exact
+/// value over the same stored M and S (sums of 36 terms, each rounding by at
+/// most 1.1e-16 of a partial sum of at most 36). The bound is lowered by
+/// kBoundSlack per unit of weight, four orders of magnitude more, and clamped
+/// at 0 (a computed error is never negative), so it never exceeds the
+/// computed error: pruning with it leaves every result bit for bit as it was.
+constexpr double kBoundSlack = 1e-9;
+
+double shapeErrorLowerBound(const ShapeDescriptor& a, const ShapeDescriptor& b,
+                            const ShapeMatchConfig& weights) {
     const double scale = 0.5 * (a.magnitudeSum + b.magnitudeSum);
-    const double magnitudeTerm = scale > 0.0 ? magnitudeDiff / scale : 0.0;
-    const double directionTerm = directionDiff / static_cast<double>(kPairs);
-    return weights.magnitudeWeight * magnitudeTerm + weights.directionWeight * directionTerm;
+    const double magnitudeTerm =
+        scale > 0.0 ? std::abs(a.magnitudeSum - b.magnitudeSum) / scale : 0.0;
+    const double sx = a.directionSumX - b.directionSumX;
+    const double sy = a.directionSumY - b.directionSumY;
+    const double directionTerm = std::sqrt(sx * sx + sy * sy) / static_cast<double>(kPairs);
+    const double bound =
+        weights.magnitudeWeight * magnitudeTerm + weights.directionWeight * directionTerm;
+    return std::max(
+        0.0, bound - kBoundSlack * (weights.magnitudeWeight + weights.directionWeight));
 }
 
 bool areasCompatible(const Feature& a, const Feature& b, double maxAreaRatio) {
@@ -250,40 +304,56 @@ const char* methodName(MatchMethod m) {
 /// The matching state shared by the three methods: the inputs, their shape
 /// descriptors and the per-left choices.
 ///
-/// Descriptors: the left one is computed once per left feature, when its first
-/// candidate passes the area test (consider() is called left by left). The
-/// right ones are all computed up front when every right feature is compared
-/// with every left one (Shape), and otherwise per candidate: the box and line
-/// leave one or two candidates per feature, and keeping 1,000 descriptors of
-/// 872 bytes costs more than computing the few that are needed.
+/// A method calls consider(i, j) for every right feature j that its geometry
+/// admits for left feature i, those of one left feature one after the other
+/// (the methods loop over the left features). When the next left feature
+/// starts, or at finish(), the candidates collected for the last one are
+/// resolved to the one of least shape error (equal errors: the lower right
+/// index) without computing the shape error of every candidate:
+///   1. candidates whose areas are not compatible are dropped;
+///   2. each remaining one gets shapeErrorLowerBound() (one square root);
+///   3. the one with the least bound (then the lowest index) is evaluated
+///      first: it is most often the best, and its error sets the bar;
+///   4. every other candidate is evaluated only if its bound does not rule it
+///      out: bound > maxError, bound > the best error so far, or bound equal
+///      to it and a right index above the best's (it would lose the tie).
+/// The choice is the least (error, right index) over the admissible
+/// candidates, whatever order they are evaluated in, and a candidate that its
+/// bound rules out cannot be that least: the result is the same as evaluating
+/// every candidate (tests/analyze/FeatureMatcherTest.cpp compares with a
+/// brute-force scan of all pairs).
+///
+/// Descriptors are computed once per feature, and only for features that are
+/// some pair's candidate: the left one when its candidates are resolved, the
+/// right ones on first use, kept for the other left features that see them.
 class MatchRun {
 public:
     MatchRun(const MatchConfig& config, const std::vector<Feature>& left,
-             const std::vector<Feature>& right, bool describeAllRight)
-        : config_(config), left_(left), right_(right), choices_(left.size()) {
-        if (describeAllRight) {
-            rightShape_.reserve(right.size());
-            for (const Feature& f : right) rightShape_.push_back(describe(f));
-        }
+             const std::vector<Feature>& right)
+        : config_(config),
+          left_(left),
+          right_(right),
+          rightSlot_(right.size(), -1),
+          choices_(left.size()) {
+        // Room for every right descriptor: growing would copy them, and the
+        // pages of what is never used are never touched.
+        rightShapes_.reserve(right.size());
     }
 
-    /// Offers right feature j to left feature i when area and shape admit it.
+    /// Right feature j is a geometric candidate of left feature i.
     void consider(std::size_t i, int j) {
-        const std::size_t uj = static_cast<std::size_t>(j);
-        ++candidates_;
-        if (!areasCompatible(left_[i], right_[uj], config_.shape.maxAreaRatio)) return;
-        if (describedLeft_ != i) {
-            leftShape_ = describe(left_[i]);
-            describedLeft_ = i;
+        if (i != current_) {
+            resolve();
+            current_ = i;
         }
-        const double error =
-            rightShape_.empty() ? shapeErrorOf(leftShape_, describe(right_[uj]), config_.shape)
-                                : shapeErrorOf(leftShape_, rightShape_[uj], config_.shape);
-        if (!(error <= config_.shape.maxError)) return;
-        choices_[i].offer(j, error);
+        ++candidates_;
+        if (areasCompatible(left_[i], right_[static_cast<std::size_t>(j)],
+                            config_.shape.maxAreaRatio))
+            pending_.push_back({j, 0.0});
     }
 
     std::vector<FeatureMatch> finish(MatchMethod method) {
+        resolve();
         std::size_t voided = 0;
         std::vector<FeatureMatch> matches = handleRepeatMatches(choices_, right_.size(), voided);
         log4cpp::Category& log = logger();
@@ -291,21 +361,88 @@ public:
             std::ostringstream msg;
             msg << "SIPFeatureMatcher " << methodName(method) << ": " << left_.size() << " left, "
                 << right_.size() << " right, " << candidates_ << " candidate pairs, "
-                << matches.size() << " matches, " << voided << " voided repeats";
+                << shapeErrors_ << " shape errors computed, " << matches.size() << " matches, "
+                << voided << " voided repeats";
             log.debug(msg.str());
         }
         return matches;
     }
 
 private:
+    struct Pending {
+        int right;
+        double bound;  ///< shapeErrorLowerBound() with the left feature current_
+    };
+
+    /// Steps 2-4 above for the left feature current_.
+    void resolve() {
+        if (pending_.empty()) return;
+        const ShapeMatchConfig& shape = config_.shape;
+        const ShapeDescriptor leftShape = describe(left_[current_]);
+        Choice& choice = choices_[current_];
+        const auto evaluate = [&](const Pending& p) {
+            // An error above the best so far cannot win: stop summing there.
+            const double limit =
+                choice.right >= 0 ? std::min(shape.maxError, choice.error) : shape.maxError;
+            ++shapeErrors_;
+            const double error = shapeErrorOf(leftShape, rightShape(p.right), shape, limit);
+            if (error <= shape.maxError) choice.offer(p.right, error);
+        };
+        if (pending_.size() == 1) {
+            // Nothing to prune. A right feature first seen as a lone candidate
+            // (most of them, in sparse scenes) is described on the stack and
+            // not kept: cheaper than keeping 1,000 descriptors of 888 bytes.
+            const int j = pending_[0].right;
+            const int slot = rightSlot_[static_cast<std::size_t>(j)];
+            double error = 0.0;
+            if (slot >= 0)
+                error = shapeErrorOf(leftShape, rightShapes_[static_cast<std::size_t>(slot)], shape);
+            else
+                error = shapeErrorOf(leftShape, describe(right_[static_cast<std::size_t>(j)]), shape);
+            ++shapeErrors_;
+            if (error <= shape.maxError) choice.offer(j, error);
+            pending_.clear();
+            return;
+        }
+        std::size_t first = 0;
+        for (std::size_t k = 0; k < pending_.size(); ++k) {
+            Pending& p = pending_[k];
+            p.bound = shapeErrorLowerBound(leftShape, rightShape(p.right), shape);
+            const Pending& f = pending_[first];
+            if (p.bound < f.bound || (p.bound == f.bound && p.right < f.right)) first = k;
+        }
+        if (pending_[first].bound <= shape.maxError) evaluate(pending_[first]);
+        for (std::size_t k = 0; k < pending_.size(); ++k) {
+            const Pending& p = pending_[k];
+            if (k == first || p.bound > shape.maxError) continue;
+            if (choice.right >= 0 &&
+                (p.bound > choice.error || (p.bound == choice.error && p.right > choice.right)))
+                continue;
+            evaluate(p);
+        }
+        pending_.clear();
+    }
+
+    /// The descriptor of right feature j, computed on first use.
+    const ShapeDescriptor& rightShape(int j) {
+        int& slot = rightSlot_[static_cast<std::size_t>(j)];
+        if (slot < 0) {
+            slot = static_cast<int>(rightShapes_.size());
+            rightShapes_.push_back(describe(right_[static_cast<std::size_t>(j)]));
+        }
+        return rightShapes_[static_cast<std::size_t>(slot)];
+    }
+
     const MatchConfig& config_;
     const std::vector<Feature>& left_;
     const std::vector<Feature>& right_;
-    ShapeDescriptor leftShape_;
-    std::size_t describedLeft_{std::numeric_limits<std::size_t>::max()};
-    std::vector<ShapeDescriptor> rightShape_;
+    std::vector<int> rightSlot_;                ///< index into rightShapes_, or -1
+    std::vector<ShapeDescriptor> rightShapes_;  ///< in order of first use
     std::vector<Choice> choices_;
+    std::size_t current_{std::numeric_limits<std::size_t>::max()};  ///< left feature of pending_
+    std::vector<Pending> pending_;
     std::size_t candidates_{0};
+    std::size_t shapeErrors_{0};
 };
 
 /// Liang-Barsky: clips the segment a-b to @p rect; false when nothing is left.
@@ -411,13 +548,13 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
                                                    const std::vector<Feature>& right) const {
     validateFeatures(left, "left");
     validateFeatures(right, "right");
-    MatchRun run(match_, left, right,
-                 match_.method == MatchMethod::Shape && !left.empty() && !right.empty());
+    MatchRun run(match_, left, right);
     if (left.empty() || right.empty()) return run.finish(match_.method);
 
     switch (match_.method) {
         case MatchMethod::Shape: {
-            // Figure 3-15, FindBestMatch: all right features, O(n_left * n_right).
+            // Figure 3-15, FindBestMatch: all right features, O(n_left * n_right)
+            // area tests and bounds, but few shape errors (MatchRun::end).
             for (std::size_t i = 0; i < left.size(); ++i)
                 for (std::size_t j = 0; j < right.size(); ++j)
                     if (left[i].centroid.x > right[j].centroid.x)

@@ -283,6 +283,23 @@ TEST_P(EveryMethod, RejectsFeaturesWithoutArea) {
     EXPECT_THROW(matchWith(cfg(), parallelRig(), good, {nan}), InvalidArgument);
 }
 
+TEST_P(EveryMethod, ExactCopiesGoToTheLowestIndex) {
+    // Three copies of the left target (equal errors, 0) in candidate places,
+    // listed with the lowest index last in the image; a look-alike (one pixel
+    // less) in front. The lowest index wins, in every method.
+    const Feature l = rect(600, 400, 12, 8);
+    const std::vector<Feature> right = {shifted(l, -120, 0), shifted(l, -100, 0),
+                                        rect(506, 400, 11, 8), shifted(l, -60, 0)};
+    MatchConfig m = cfg();
+    m.minRangeMm = 500.0;
+    m.maxEpipolarDistancePx = 1.0;
+    const Pairs result = matchWith(m, parallelRig(), {l}, right);
+    ASSERT_EQ(result, (Pairs{{0, 0}}));
+    EXPECT_EQ(result[0].shapeError, 0.0);
+    // Without the first copy, the next lowest index.
+    EXPECT_EQ(matchWith(m, parallelRig(), {l}, {right[2], right[1], right[3]}), (Pairs{{0, 1}}));
+}
+
 INSTANTIATE_TEST_SUITE_P(Matcher, EveryMethod,
                          ::testing::Values(MatchMethod::Shape, MatchMethod::EpipolarBox,
                                            MatchMethod::EpipolarLine),
@@ -545,8 +562,19 @@ struct Rng {
     }
 };
 
+/// What a brute-force scan saw: the candidates that passed geometry, area and
+/// maxError, the left features whose least error two or more candidates share
+/// exactly, and those with another candidate within 1e-12 of the least but
+/// not equal to it (look-alikes that differ only by rounding).
+struct BruteForceStats {
+    std::size_t candidates{0};
+    std::size_t tiedBest{0};
+    std::size_t nearTiedBest{0};
+};
+
+/// The documented rules of SIPFeatureMatcher (header), pair by pair.
 Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::vector<Feature>& l,
-                 const std::vector<Feature>& r) {
+                 const std::vector<Feature>& r, BruteForceStats* stats = nullptr) {
     const cv::Matx33d F = fundamentalMatrix(s);
     const StereoCoordinateCalculator tri(s);
     auto ideal = [](const CameraIntrinsics& c, const cv::Point2d& px) {
@@ -555,12 +583,15 @@ Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::v
     };
     std::vector<int> best(l.size(), -1);
     std::vector<double> bestError(l.size(), 0.0);
-    for (std::size_t i = 0; i < l.size(); ++i)
+    for (std::size_t i = 0; i < l.size(); ++i) {
+        std::vector<double> errors;
         for (std::size_t j = 0; j < r.size(); ++j) {
             const double dx = l[i].centroid.x - r[j].centroid.x;
             const double dy = l[i].centroid.y - r[j].centroid.y;
             bool geometric = false;
-            if (m.method == MatchMethod::EpipolarBox) {
+            if (m.method == MatchMethod::Shape) {
+                geometric = dx > 0.0;
+            } else if (m.method == MatchMethod::EpipolarBox) {
                 geometric = m.boxDxMin < dx && dx < m.boxDxMax && m.boxDyMin < dy && dy < m.boxDyMax;
             } else {
                 const cv::Vec3d line = F * ideal(s.left, l[i].centroid);
@@ -574,11 +605,21 @@ Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::v
             if (!geometric || hi > m.shape.maxAreaRatio * lo) continue;
             const double e = shapeError(l[i], r[j], m.shape);
             if (e > m.shape.maxError) continue;
+            errors.push_back(e);
             if (best[i] < 0 || e < bestError[i] || (e == bestError[i] && static_cast<int>(j) < best[i])) {
                 best[i] = static_cast<int>(j);
                 bestError[i] = e;
             }
         }
+        if (stats && !errors.empty()) {
+            stats->candidates += errors.size();
+            const double least = bestError[i];
+            stats->tiedBest += std::count(errors.begin(), errors.end(), least) > 1 ? 1 : 0;
+            stats->nearTiedBest += std::any_of(errors.begin(), errors.end(), [&](double e) {
+                return e != least && e - least <= 1e-12;
+            });
+        }
+    }
     Pairs out;
     for (std::size_t i = 0; i < l.size(); ++i) {
         if (best[i] < 0) continue;
@@ -627,6 +668,195 @@ TEST(CandidateGrid, CrowdedRandomScenesMatchBruteForce) {
         const Pairs expectedLine = bruteForce(line, rig, left, right);
         EXPECT_GT(expectedLine.size(), 5u);
         EXPECT_EQ(matchWith(line, rig, left, right), expectedLine);
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Candidate pruning (the shape-error lower bound, the tie rule) never changes
+// a result: crowded scenes of look-alike targets, every method, several
+// weightings and limits, at 10, 100 and 1,000 features, give the same matches
+// and the same shape errors, bit for bit, as the brute-force scan.
+
+/// The feature of a pixel set moved by whole pixels.
+Feature featureAt(std::vector<cv::Point> pixels, int dx, int dy) {
+    for (cv::Point& p : pixels) p += cv::Point(dx, dy);
+    return featureFromPixels(pixels);
+}
+
+/// Pixel sets of small targets about the origin: look-alike prototypes and
+/// variants one pixel apart.
+std::vector<std::vector<cv::Point>> prototypes() {
+    auto rectPixels = [](int w, int h) {
+        std::vector<cv::Point> px;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) px.emplace_back(x, y);
+        return px;
+    };
+    auto discPixels = [](int a, int b) {
+        std::vector<cv::Point> px;
+        for (int y = -b; y <= b; ++y)
+            for (int x = -a; x <= a; ++x)
+                if (static_cast<double>(x * x) / (a * a) + static_cast<double>(y * y) / (b * b) <= 1.0)
+                    px.emplace_back(x, y);
+        return px;
+    };
+    auto trianglePixels = [](int n) {
+        std::vector<cv::Point> px;
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x <= y; ++x) px.emplace_back(x, y);
+        return px;
+    };
+    // Symmetric ones (centroids on whole or half pixels, so translated copies
+    // have bitwise equal descriptors) and a triangle (centroid at thirds of a
+    // pixel: translated copies differ by rounding).
+    std::vector<std::vector<cv::Point>> p = {rectPixels(7, 5), discPixels(4, 4), discPixels(5, 3),
+                                             trianglePixels(6)};
+    // One pixel off (4, 5, 6, 7 of 0, 1, 2, 3), centroids off the pixel grid.
+    for (std::size_t k = 0; k < 4; ++k) {
+        p.push_back(p[k]);
+        p.back().erase(p.back().begin() + static_cast<std::ptrdiff_t>(k));
+    }
+    return p;
+}
+
+struct LookAlikeScene {
+    std::vector<Feature> left, right;
+};
+
+/// n left targets from the eight prototypes() at random places, about one per
+/// 20 x 20 px (so a box of scorpion.xml's size holds dozens of candidates);
+/// each is seen in the right image 40..120 px to the left and up to 2 rows
+/// off, as a translated copy (equal or near-equal shape errors), every fifth
+/// as its one-pixel sibling and every seventh moved by a sub-pixel amount.
+/// Every ninth right feature is an exact duplicate of another (equal errors,
+/// ties to the lower index), every eleventh left feature repeats another
+/// (ties in HandleRepeatMatches), and n / 10 right distractors have no
+/// partner. The right list is shuffled.
+///
+/// With @p rows > 0 every centroid lies exactly on one of that many image
+/// rows 24 px apart, and copies stay on their row (see the EpipolarLine note
+/// in the test below).
+LookAlikeScene lookAlikeScene(Rng& rng, int n, int rows = 0) {
+    const auto shapes = prototypes();
+    const double width = 26.0 * std::sqrt(n), height = 20.0 * std::sqrt(n);
+    auto pick = [&](std::size_t count) {
+        return static_cast<std::size_t>(rng.uniform(0.0, static_cast<double>(count) - 1e-9));
+    };
+    // A feature of prototype @p shape at (x, y); on a row scene, its centroid
+    // is put on the row y.
+    auto place = [&](std::size_t shape, int x, int y) {
+        Feature f = featureAt(shapes[shape], x, y);
+        if (rows > 0) f.centroid.y = f.weightedCentroid.y = y;
+        return f;
+    };
+    auto randomY = [&] {
+        return rows > 0 ? 200 + 24 * static_cast<int>(pick(static_cast<std::size_t>(rows)))
+                        : 200 + static_cast<int>(rng.uniform(0.0, height));
+    };
+    LookAlikeScene scene;
+    for (int i = 0; i < n; ++i) {
+        if (i % 11 == 10) {  // a left feature listed twice
+            scene.left.push_back(scene.left[pick(scene.left.size())]);
+            scene.right.push_back(scene.right[pick(scene.right.size())]);
+            continue;
+        }
+        const std::size_t shape = pick(shapes.size());
+        const int x = 400 + static_cast<int>(rng.uniform(0.0, width));
+        const int y = randomY();
+        scene.left.push_back(place(shape, x, y));
+        const int dx = -static_cast<int>(rng.uniform(40.0, 120.0));
+        const int dy = rows > 0 ? 0 : static_cast<int>(rng.uniform(-2.0, 3.0));
+        const std::size_t seen = i % 5 == 4 ? (shape + 4) % 8 : shape;  // the other variant
+        Feature r = place(seen, x + dx, y + dy);
+        if (i % 7 == 6) {
+            const cv::Point2d subPixel(rng.uniform(-0.4, 0.4), rows > 0 ? 0.0 : rng.uniform(-0.4, 0.4));
+            r.centroid += subPixel;
+            r.weightedCentroid = r.centroid;
+        }
+        scene.right.push_back(r);
+        if (i % 9 == 8) scene.right.push_back(r);  // an exact duplicate
+    }
+    for (int k = 0; k < n / 10; ++k)
+        scene.right.push_back(place(pick(shapes.size()),
+                                    400 + static_cast<int>(rng.uniform(-120.0, width)), randomY()));
+    for (std::size_t i = scene.right.size() - 1; i > 0; --i)
+        std::swap(scene.right[i], scene.right[pick(i + 1)]);
+    return scene;
+}
+
+/// The configurations compared: every method, the shipped limits and others.
+std::vector<std::pair<std::string, MatchConfig>> pruningConfigs() {
+    std::vector<std::pair<std::string, MatchConfig>> configs;
+    MatchConfig box = config(MatchMethod::EpipolarBox);  // data/config/scorpion.xml
+    box.boxDxMin = 15.0;
+    box.boxDxMax = 310.0;
+    box.boxDyMin = -25.0;
+    box.boxDyMax = 40.0;
+    configs.emplace_back("box scorpion.xml", box);
+    MatchConfig tight = box;
+    tight.boxDxMin = 40.0;
+    tight.boxDxMax = 121.0;
+    tight.boxDyMin = -3.0;
+    tight.boxDyMax = 3.0;
+    tight.shape = {0.3, 2.0, 0.25, 1.5};
+    configs.emplace_back("box tight, maxError 0.25", tight);
+    MatchConfig unweighted = box;
+    unweighted.shape.magnitudeWeight = unweighted.shape.directionWeight = 0.0;
+    configs.emplace_back("box, weights 0: every error 0", unweighted);
+    MatchConfig shape = config(MatchMethod::Shape);
+    configs.emplace_back("shape", shape);
+    shape.shape = {1.0, 0.0, 0.2, 4.0};
+    configs.emplace_back("shape, magnitude only, maxError 0.2", shape);
+    MatchConfig line = config(MatchMethod::EpipolarLine);
+    // 123.5..38.5 px on the parallel rig: limits between whole-pixel
+    // disparities, where the matcher's depth (from normalised coordinates) and
+    // StereoCoordinateCalculator's could round to different sides.
+    line.minRangeMm = 810.0;
+    line.maxRangeMm = 2600.0;
+    line.maxEpipolarDistancePx = 4.0;
+    line.shape = {0.0, 1.0, 1e9, 4.0};
+    configs.emplace_back("line, direction only", line);
+    return configs;
+}
+
+TEST(CandidatePruning, LookAlikeScenesMatchBruteForceAt10_100_1000Features) {
+    Rng rng{2024u};
+    for (int n : {10, 100, 1000}) {
+        // A free scene (38 box candidates per left feature at n = 1,000) and
+        // one with all targets on n / 125 rows (16 line candidates).
+        const LookAlikeScene free = lookAlikeScene(rng, n);
+        const LookAlikeScene onRows = lookAlikeScene(rng, n, std::max(1, n / 125));
+        for (const auto& [name, m] : pruningConfigs())
+            for (const LookAlikeScene* scene : {&free, &onRows}) {
+                // EpipolarLine only on rows: for a pair off the row with a
+                // disparity near 0 the two rays are nearly parallel and their
+                // midpoint triangulates to almost any depth, so the documented
+                // rule (distance <= max and depth in range) admits pairs far
+                // from the depth range's segment, which the matcher does not
+                // search (it walks that segment). A difference of rules that
+                // predates the pruning and is not what this test is about.
+                if (m.method == MatchMethod::EpipolarLine && scene == &free) continue;
+                SCOPED_TRACE(name + ", n = " + std::to_string(n) +
+                             (scene == &free ? ", free" : ", on rows"));
+                BruteForceStats stats;
+                const Pairs expected =
+                    bruteForce(m, parallelRig(), scene->left, scene->right, &stats);
+                const Pairs got = matchWith(m, parallelRig(), scene->left, scene->right);
+                ASSERT_EQ(got, expected);
+                for (std::size_t k = 0; k < got.size(); ++k)
+                    ASSERT_EQ(got[k].shapeError, expected[k].shapeError) << "match " << k;
+                EXPECT_FALSE(expected.empty());
+                if (n == 1000 && name == "box scorpion.xml" && scene == &free) {
+                    // Crowded, and full of look-alikes: many candidates per
+                    // left feature, exact ties and ties up to rounding.
+                    EXPECT_GT(stats.candidates, 20u * static_cast<std::size_t>(n));
+                    EXPECT_GT(stats.tiedBest, 100u);
+                    EXPECT_GT(stats.nearTiedBest, 100u);
+                }
+                if (n == 1000 && m.method == MatchMethod::EpipolarLine) {
+                    EXPECT_GT(stats.candidates, 5u * static_cast<std::size_t>(n));
+                }
+            }
     }
 }
 

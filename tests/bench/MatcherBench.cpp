@@ -1,5 +1,7 @@
 // SIPFeatureMatcher against naive all-pairs versions of the same methods, for
-// 1, 10, 100 and 1,000 features per image. Run:
+// 1, 10, 100 and 1,000 features per image, on a sparse scene (Box, Line,
+// Shape: one or two box or line candidates per feature) and a dense one of
+// look-alike discs (BoxDense, ShapeDense). Run:
 //   bench_matcher --benchmark_repetitions=9 --benchmark_report_aggregates_only=true
 //
 // The scene: n equal-sized targets on a grid filling a 1200 x 900 px region of
@@ -103,6 +105,93 @@ Scene makeScene(int n) {
     return scene;
 }
 
+/// A feature from its pixel set, with the geometry of Feature.h (as the
+/// labelling computes it).
+Feature featureFromPixels(const std::vector<cv::Point>& pixels) {
+    Feature f;
+    f.area = static_cast<int>(pixels.size());
+    int xl = pixels[0].x, xr = xl, yt = pixels[0].y, yb = yt;
+    double sx = 0.0, sy = 0.0;
+    for (const cv::Point& p : pixels) {
+        xl = std::min(xl, p.x);
+        xr = std::max(xr, p.x);
+        yt = std::min(yt, p.y);
+        yb = std::max(yb, p.y);
+        sx += p.x;
+        sy += p.y;
+    }
+    f.centroid = f.weightedCentroid = {sx / f.area, sy / f.area};
+    int topMin = xr, topMax = xl, botMin = xr, botMax = xl;
+    int rightMin = yb, rightMax = yt, leftMin = yb, leftMax = yt;
+    for (const cv::Point& p : pixels) {
+        if (p.y == yt) topMin = std::min(topMin, p.x), topMax = std::max(topMax, p.x);
+        if (p.y == yb) botMin = std::min(botMin, p.x), botMax = std::max(botMax, p.x);
+        if (p.x == xr) rightMin = std::min(rightMin, p.y), rightMax = std::max(rightMax, p.y);
+        if (p.x == xl) leftMin = std::min(leftMin, p.y), leftMax = std::max(leftMax, p.y);
+    }
+    f.boundary = {cv::Point(topMin, yt), cv::Point(topMax, yt),    cv::Point(xr, rightMin),
+                  cv::Point(xr, rightMax), cv::Point(botMax, yb), cv::Point(botMin, yb),
+                  cv::Point(xl, leftMax),  cv::Point(xl, leftMin)};
+    f.box = cv::Rect(xl, yt, xr - xl + 1, yb - yt + 1);
+    f.aspectRatio = static_cast<double>(f.box.width) / f.box.height;
+    f.areaRatio = static_cast<double>(f.area) / f.box.area();
+    return f;
+}
+
+/// A disc of radius @p r about pixel @p c; variant 1..3 loses one more pixel
+/// of its rim (as a demosaic fringe would), so that look-alikes differ a little.
+Feature discAt(cv::Point c, int r, int variant) {
+    std::vector<cv::Point> px;
+    for (int y = -r; y <= r; ++y)
+        for (int x = -r; x <= r; ++x)
+            if (x * x + y * y <= r * r + r) px.emplace_back(c.x + x, c.y + y);
+    for (int k = 0; k < variant && px.size() > 1; ++k) px.erase(px.begin() + k * 3);
+    return featureFromPixels(px);
+}
+
+/// The pipeline's dense case (bench_pipeline synthetic_640x480/n:N): n
+/// look-alike discs on a grid filling a 640x480 image, the right image the
+/// left shifted 20 px to the left; matched through data/config/scorpion.xml's
+/// box (dx 15..310, dy -25..40), which then holds 53 candidates per left
+/// feature at n = 1,000 (the chain's own 640x480 features: 27 per type). The
+/// right list is shuffled.
+Scene makeDenseScene(int n) {
+    const cv::Rect region(28, 8, 604, 464);
+    const int cols = std::max(1, static_cast<int>(std::ceil(std::sqrt(n * 604.0 / 464.0))));
+    const int rows = (n + cols - 1) / cols;
+    const double pitchX = 604.0 / cols, pitchY = 464.0 / rows;
+    const int radius = std::max(1, std::min(60, static_cast<int>(0.3 * std::min(pitchX, pitchY))));
+    std::vector<int> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    unsigned state = 77u;
+    for (int i = n - 1; i > 0; --i) {
+        state = state * 1664525u + 1013904223u;
+        std::swap(order[static_cast<std::size_t>(i)],
+                  order[(state >> 8) % static_cast<unsigned>(i + 1)]);
+    }
+    Scene scene;
+    scene.right.resize(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+        const cv::Point c(region.x + static_cast<int>((i % cols + 0.5) * pitchX),
+                          region.y + static_cast<int>((i / cols + 0.5) * pitchY));
+        const int variant = (i * 7) % 4;
+        scene.left.push_back(discAt(c, radius, variant));
+        scene.right[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])] =
+            discAt({c.x - 20, c.y}, radius, variant);
+    }
+    return scene;
+}
+
+MatchConfig denseConfig(MatchMethod method) {
+    MatchConfig m;  // shape limits as scorpion.xml: maxError 1e9, maxAreaRatio 4
+    m.method = method;
+    m.boxDxMin = 15.0;
+    m.boxDxMax = 310.0;
+    m.boxDyMin = -25.0;
+    m.boxDyMax = 40.0;
+    return m;
+}
+
 // --- Naive all-pairs baselines: the same decisions, every pair examined. ----
 
 struct Best {
@@ -201,9 +290,13 @@ bool sameMatches(const std::vector<FeatureMatch>& a, const std::vector<FeatureMa
 using Naive = std::vector<FeatureMatch> (*)(const MatchConfig&, const StereoSystemConfig&,
                                             const std::vector<Feature>&, const std::vector<Feature>&);
 
-void runMatcher(benchmark::State& state, MatchMethod method) {
-    const Scene scene = makeScene(static_cast<int>(state.range(0)));
-    const SIPFeatureMatcher matcher(matchConfig(method), rig());
+using SceneMaker = Scene (*)(int);
+using ConfigMaker = MatchConfig (*)(MatchMethod);
+
+void runMatcher(benchmark::State& state, MatchMethod method, SceneMaker sceneOf = makeScene,
+                ConfigMaker configOf = matchConfig) {
+    const Scene scene = sceneOf(static_cast<int>(state.range(0)));
+    const SIPFeatureMatcher matcher(configOf(method), rig());
     std::size_t matched = 0;
     for (auto _ : state) {
         const auto m = matcher.match(scene.left, scene.right);
@@ -213,9 +306,10 @@ void runMatcher(benchmark::State& state, MatchMethod method) {
     state.counters["matched"] = static_cast<double>(matched);
 }
 
-void runNaive(benchmark::State& state, MatchMethod method, Naive naive) {
-    const Scene scene = makeScene(static_cast<int>(state.range(0)));
-    const MatchConfig config = matchConfig(method);
+void runNaive(benchmark::State& state, MatchMethod method, Naive naive,
+              SceneMaker sceneOf = makeScene, ConfigMaker configOf = matchConfig) {
+    const Scene scene = sceneOf(static_cast<int>(state.range(0)));
+    const MatchConfig config = configOf(method);
     const StereoSystemConfig stereo = rig();
     const auto expected = SIPFeatureMatcher(config, stereo).match(scene.left, scene.right);
     if (!sameMatches(naive(config, stereo, scene.left, scene.right), expected)) {
@@ -238,6 +332,19 @@ void BM_BoxNaive(benchmark::State& s) { runNaive(s, MatchMethod::EpipolarBox, na
 void BM_Line(benchmark::State& s) { runMatcher(s, MatchMethod::EpipolarLine); }
 void BM_LineNaive(benchmark::State& s) { runNaive(s, MatchMethod::EpipolarLine, naiveLine); }
 
+void BM_BoxDense(benchmark::State& s) {
+    runMatcher(s, MatchMethod::EpipolarBox, makeDenseScene, denseConfig);
+}
+void BM_BoxDenseNaive(benchmark::State& s) {
+    runNaive(s, MatchMethod::EpipolarBox, naiveBox, makeDenseScene, denseConfig);
+}
+void BM_ShapeDense(benchmark::State& s) {
+    runMatcher(s, MatchMethod::Shape, makeDenseScene, denseConfig);
+}
+void BM_ShapeDenseNaive(benchmark::State& s) {
+    runNaive(s, MatchMethod::Shape, naiveShape, makeDenseScene, denseConfig);
+}
+
 void sizes(benchmark::internal::Benchmark* b) {
     b->Arg(1)->Arg(10)->Arg(100)->Arg(1000)->Unit(benchmark::kMicrosecond);
 }
@@ -248,6 +355,10 @@ BENCHMARK(BM_Box)->Apply(sizes);
 BENCHMARK(BM_BoxNaive)->Apply(sizes);
 BENCHMARK(BM_Line)->Apply(sizes);
 BENCHMARK(BM_LineNaive)->Apply(sizes);
+BENCHMARK(BM_BoxDense)->Apply(sizes);
+BENCHMARK(BM_BoxDenseNaive)->Apply(sizes);
+BENCHMARK(BM_ShapeDense)->Apply(sizes);
+BENCHMARK(BM_ShapeDenseNaive)->Apply(sizes);
 
 }  // namespace
 }  // namespace avatar

@@ -29,7 +29,13 @@
 //                             analysis (lighting factors built, buffers faulted
 //                             in): what a short run such as avatar-analyze on a
 //                             three-pair session mostly sees.
-// All are wall-clock (UseRealTime / manual time): the chain is threaded.
+//   Match/<input>             the match stage alone (SIPFeatureMatcher, one
+//                             thread, CPU time) on the features the chain found;
+//   MatchAllPairs/<input>     the same decisions with every pair tested and every
+//                             box candidate's shape error computed (what the
+//                             matcher cost before it pruned candidates), checked
+//                             to give the same matches.
+// All but Match* are wall-clock (UseRealTime / manual time): the chain is threaded.
 // "faults" is minor page faults per iteration (fresh buffers fault per 4 KiB).
 //
 // --opencv_threads=N (first argument) calls cv::setNumThreads(N) before
@@ -38,6 +44,7 @@
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/analyze/LightingCorrection.h>
+#include <avatar/analyze/SIPFeatureMatcher.h>
 #include <avatar/analyze/StereoCoordinateCalculator.h>
 #include <avatar/config/ConfigXml.h>
 #include <avatar/render/Renderer.h>
@@ -488,6 +495,91 @@ void BM_FirstFrame(benchmark::State& state, const std::string& name) {
     times.report(state);
 }
 
+// ---------------------------------------------------------------------------
+// The match stage alone, on the features the chain found
+// ---------------------------------------------------------------------------
+
+/// EpipolarBox matching with every candidate's shape error computed: all
+/// pairs through the box and area tests, then shapeError() and maxError, the
+/// least (error, right index) per left feature, then HandleRepeatMatches (a
+/// right feature goes to the least error, equal errors to the lower left
+/// index). The same decisions as SIPFeatureMatcher, without its candidate
+/// grid and without pruning candidates by a bound on the shape error.
+std::vector<FeatureMatch> allPairsBoxMatch(const MatchConfig& m, const std::vector<Feature>& l,
+                                           const std::vector<Feature>& r) {
+    std::vector<FeatureMatch> best(l.size());
+    for (std::size_t i = 0; i < l.size(); ++i)
+        for (std::size_t j = 0; j < r.size(); ++j) {
+            const double dx = l[i].centroid.x - r[j].centroid.x;
+            const double dy = l[i].centroid.y - r[j].centroid.y;
+            if (!(m.boxDxMin < dx && dx < m.boxDxMax && m.boxDyMin < dy && dy < m.boxDyMax)) continue;
+            const double small = std::min(l[i].area, r[j].area), large = std::max(l[i].area, r[j].area);
+            if (large > m.shape.maxAreaRatio * small) continue;
+            const double e = shapeError(l[i], r[j], m.shape);
+            if (!(e <= m.shape.maxError)) continue;
+            FeatureMatch& b = best[i];
+            if (b.right < 0 || e < b.shapeError || (e == b.shapeError && static_cast<int>(j) < b.right))
+                b = {static_cast<int>(i), static_cast<int>(j), e};
+        }
+    std::vector<int> owner(r.size(), -1);
+    for (std::size_t i = 0; i < best.size(); ++i) {
+        if (best[i].right < 0) continue;
+        int& o = owner[static_cast<std::size_t>(best[i].right)];
+        if (o < 0 || best[i].shapeError < best[static_cast<std::size_t>(o)].shapeError) o = static_cast<int>(i);
+    }
+    std::vector<FeatureMatch> out;
+    for (std::size_t i = 0; i < best.size(); ++i)
+        if (best[i].right >= 0 && owner[static_cast<std::size_t>(best[i].right)] == static_cast<int>(i))
+            out.push_back(best[i]);
+    return out;
+}
+
+bool sameMatches(const std::vector<FeatureMatch>& a, const std::vector<FeatureMatch>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t k = 0; k < a.size(); ++k)
+        if (a[k].left != b[k].left || a[k].right != b[k].right || a[k].shapeError != b[k].shapeError)
+            return false;
+    return true;
+}
+
+/// SIPFeatureMatcher (allPairs false) or allPairsBoxMatch() on the features of
+/// each target type that the chain found in the input, as the match stage
+/// calls it; both are checked to agree before timing. Counters: features and
+/// matches over the types.
+void BM_Match(benchmark::State& state, const std::string& name, bool allPairs) {
+    const Input& in = input(name);
+    if (in.config.match.method != MatchMethod::EpipolarBox) {
+        state.SkipWithError("the all-pairs reference is for the epipolar box");
+        return;
+    }
+    AnalyzeStereoImagePair chain(in.config);
+    chain.analyze(in.pair, 0);
+    const auto& left = chain.lastFrame().at(Side::Left).features;
+    const auto& right = chain.lastFrame().at(Side::Right).features;
+    const SIPFeatureMatcher matcher(in.config.match, in.config.stereo);
+    const auto run = [&](std::size_t type) {
+        return allPairs ? allPairsBoxMatch(in.config.match, left[type], right[type])
+                        : matcher.match(left[type], right[type]);
+    };
+    std::size_t features = 0, matches = 0;
+    for (std::size_t t = 0; t < left.size(); ++t) {
+        const auto ours = matcher.match(left[t], right[t]);
+        if (!sameMatches(ours, allPairsBoxMatch(in.config.match, left[t], right[t]))) {
+            state.SkipWithError("SIPFeatureMatcher and the all-pairs reference disagree");
+            return;
+        }
+        features += left[t].size();
+        matches += ours.size();
+    }
+    for (auto _ : state)
+        for (std::size_t t = 0; t < left.size(); ++t) {
+            const auto m = run(t);
+            benchmark::DoNotOptimize(m.data());
+        }
+    state.counters["features_L"] = static_cast<double>(features);
+    state.counters["matches"] = static_cast<double>(matches);
+}
+
 std::vector<std::string> inputNames() {
     std::vector<std::string> names{"lab_1280x960"};
     for (const char* size : {"640x480", "1280x960", "2448x2048"})
@@ -515,6 +607,12 @@ void registerAll() {
     benchmark::RegisterBenchmark("FirstFrame/lab_1280x960", BM_FirstFrame, std::string("lab_1280x960"))
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
+    for (const std::string& name : inputNames()) {
+        benchmark::RegisterBenchmark(("Match/" + name).c_str(), BM_Match, name, false)
+            ->Unit(benchmark::kMicrosecond);
+        benchmark::RegisterBenchmark(("MatchAllPairs/" + name).c_str(), BM_Match, name, true)
+            ->Unit(benchmark::kMicrosecond);
+    }
 }
 
 }  // namespace

@@ -52,7 +52,7 @@ cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
 /// shape.maxError; among several admissible right features a left feature
 /// takes the one of least shape error (equal errors: the lower right index).
 /// - Shape (Figure 3-15): every right feature with x_left > x_right (centroids,
-///   pixels) is admissible. O(n_left * n_right) shape errors.
+///   pixels) is admissible. O(n_left * n_right) candidates.
 /// - EpipolarBox (Figure 3-16): right features whose centroid satisfies
 ///   boxDxMin < x_left - x_right < boxDxMax and boxDyMin < y_left - y_right <
 ///   boxDyMax, in distorted pixels as the thesis's box.
@@ -63,6 +63,14 @@ cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
 ///   midpoint triangulation of StereoCoordinateCalculator, Figure 3-18).
 /// Box and line look up candidates in a grid of the right centroids, so their
 /// cost grows with the number of candidates, not with n_left * n_right.
+///
+/// The shape error (36 point pairs) is not computed for every candidate: a
+/// lower bound of it from the features' summed distances and directions (one
+/// square root) rules out candidates that cannot beat the best one found, or
+/// exceed maxError, and the result is the same as computing every shape error,
+/// bit for bit (tests/analyze/FeatureMatcherTest.cpp, CandidatePruning). With
+/// 1,000 look-alike targets per 640x480 image in scorpion.xml's box (27
+/// candidates per left feature) about one candidate in four is evaluated.
 ///
 /// HandleRepeatMatches: a right feature chosen by several left features goes to
 /// the lowest shape error (equal errors: the lower left index); the others are
