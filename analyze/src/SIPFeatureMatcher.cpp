@@ -474,6 +474,15 @@ bool clipSegment(cv::Point2d& a, cv::Point2d& b, const cv::Rect2d& rect) {
 /// StereoCoordinateCalculator::triangulate() computes it, from undistorted
 /// normalised coordinates (already at hand here, so not normalised again).
 /// NaN when the two rays are parallel.
+/// Distance from @p q to the segment [a, b].
+double distanceToSegment(const cv::Point2d& q, const cv::Point2d& a, const cv::Point2d& b) {
+    const cv::Point2d ab = b - a;
+    const double length2 = ab.dot(ab);
+    const double t = length2 > 0.0 ? std::clamp((q - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+    const cv::Point2d d = q - (a + ab * t);
+    return std::hypot(d.x, d.y);
+}
+
 double midpointDepthMm(const cv::Matx33d& R, const cv::Vec3d& T, const cv::Point2d& xl,
                        const cv::Point2d& xr) {
     const cv::Vec3d Xl(xl.x, xl.y, 1.0);
@@ -597,8 +606,10 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
             const cv::Matx33d kLeft = cameraMatrix(stereo_.left);
             const cv::Matx33d kRight = cameraMatrix(stereo_.right);
             const double maxDistance = match_.maxEpipolarDistancePx;
-            // The query covers the segment widened beyond the distance limit, so
-            // that a midpoint-triangulated depth just inside the range is not lost.
+            // Candidates lie within this margin of the depth range's segment of
+            // the epipolar line (the query covers exactly that band); it is wider
+            // than the distance limit, so that a midpoint-triangulated depth just
+            // inside the range is not lost.
             const double margin = 2.0 * maxDistance + 2.0;
             std::vector<std::size_t> seen(right.size(), 0);
 
@@ -635,6 +646,7 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
                 if (!std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) ||
                     !std::isfinite(b.y))
                     continue;
+                const cv::Point2d segmentNear = a, segmentFar = b;
                 cv::Rect2d area = grid.bounds();
                 area.x -= margin;
                 area.y -= margin;
@@ -659,6 +671,10 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
                             const cv::Point2d& q = rightIdeal[uj];
                             const double distance = std::abs(line[0] * q.x + line[1] * q.y + line[2]);
                             if (!(distance <= maxDistance)) return;
+                            // Near the depth range's segment, not only near the
+                            // line: nearly parallel rays (disparity ~ 0) have a
+                            // meaningless midpoint depth.
+                            if (!(distanceToSegment(q, segmentNear, segmentFar) <= margin)) return;
                             const double depth = midpointDepthMm(R, T, xl, rightNormalized[uj]);
                             if (depth >= match_.minRangeMm && depth <= match_.maxRangeMm)
                                 run.consider(i, j);

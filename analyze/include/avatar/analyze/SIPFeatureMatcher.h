@@ -57,10 +57,16 @@ cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
 ///   boxDxMin < x_left - x_right < boxDxMax and boxDyMin < y_left - y_right <
 ///   boxDyMax, in distorted pixels as the thesis's box.
 /// - EpipolarLine: centroids are undistorted (normalizePixel) and mapped to
-///   undistorted pixels; a right feature is admissible when its distance to
-///   the epipolar line F p_left is at most maxEpipolarDistancePx and the pair
-///   triangulates to a left-camera depth z in [minRangeMm, maxRangeMm] (the
-///   midpoint triangulation of StereoCoordinateCalculator, Figure 3-18).
+///   undistorted pixels; a right feature is admissible when (1) its distance
+///   to the epipolar line F p_left is at most maxEpipolarDistancePx, (2) it
+///   lies within 2 * maxEpipolarDistancePx + 2 px of the segment of that line
+///   between the right-image projections of the left ray's points at depths
+///   minRangeMm and maxRangeMm (shortened where the ray passes behind the
+///   right camera), and (3) the pair triangulates to a left-camera depth z in
+///   [minRangeMm, maxRangeMm] (the midpoint triangulation of
+///   StereoCoordinateCalculator, Figure 3-18). Rule (2) keeps out pairs whose
+///   rays are nearly parallel (disparity near zero: a point near infinity),
+///   whose midpoint can land at any depth.
 /// Box and line look up candidates in a grid of the right centroids, so their
 /// cost grows with the number of candidates, not with n_left * n_right.
 ///
