@@ -327,26 +327,14 @@ private:
 
 // ------------------------------------------------------------ GenICam
 
-/// Why no private loopback network could be made (empty: it was).
-std::string& loopbackProblem() {
-    static std::string problem = "not set up";
-    return problem;
-}
-
-/// Moves the test process into a private network namespace (GenICamFakeCamera.h)
-/// while it has one thread, before any test.
-class PrivateLoopback : public ::testing::Environment {
-public:
-    void SetUp() override { loopbackProblem() = test::setUpPrivateLoopback(); }
-};
-
-[[maybe_unused]] auto* const kLoopback = ::testing::AddGlobalTestEnvironment(new PrivateLoopback);
+/// The fake cameras run on a private loopback network (GenICamFakeCamera.h).
+[[maybe_unused]] const bool kLoopback = test::registerPrivateLoopback();
 
 /// Two fake GigE Vision cameras (Mono8 and Mono16, 2048x2048 sensor) at 25 frames/s.
 class GenICamHarness final : public Harness {
 public:
     explicit GenICamHarness(const BackendCase& c) {
-        if (!loopbackProblem().empty()) return;
+        if (!test::privateLoopbackProblem().empty()) return;
         left_.start();
         right_.start();
         GenICamOptions o;
@@ -360,7 +348,8 @@ public:
         genicam_ = std::make_unique<AcquireSIPGenICam>(config(0), o, c.groupSize.value_or(99999));
     }
     std::string unavailable() const override {
-        return loopbackProblem().empty() ? "" : "no private loopback network: " + loopbackProblem();
+        const std::string& problem = test::privateLoopbackProblem();
+        return problem.empty() ? "" : "no private loopback network: " + problem;
     }
     AcquireStereoImagePair& backend() override { return *genicam_; }
     AvatarConfig config(int which) const override {

@@ -12,6 +12,8 @@
 // has its own namespace, so its own port 3956); and the cameras, children of
 // the process, share its namespace. Only loopback addresses are ever used.
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -109,6 +111,25 @@ inline std::string setUpPrivateLoopback() {
     ::close(fd);
     if (!problem.empty()) return "in a private " + how + ": " + problem;
     return "";
+}
+
+/// Why this test program has no private loopback network ("" when it has
+/// one); "not set up" until the environment of registerPrivateLoopback() ran.
+inline std::string& privateLoopbackProblem() {
+    static std::string problem = "not set up";
+    return problem;
+}
+
+/// Registers a GoogleTest environment that moves the process into a private
+/// loopback network (setUpPrivateLoopback) before any test, while it still has
+/// one thread. Once per test program, at namespace scope:
+///   [[maybe_unused]] const bool kLoopback = test::registerPrivateLoopback();
+inline bool registerPrivateLoopback() {
+    struct PrivateLoopback : ::testing::Environment {
+        void SetUp() override { privateLoopbackProblem() = setUpPrivateLoopback(); }
+    };
+    ::testing::AddGlobalTestEnvironment(new PrivateLoopback);
+    return true;
 }
 
 /// True when a UDP socket is bound to @p address:@p port in this namespace.

@@ -31,17 +31,8 @@ using Clock = std::chrono::steady_clock;
 
 // ------------------------------------------------------------ environment
 
-std::string& loopbackProblem() {
-    static std::string problem = "not set up";
-    return problem;
-}
-
-class PrivateLoopback : public ::testing::Environment {
-public:
-    void SetUp() override { loopbackProblem() = test::setUpPrivateLoopback(); }
-};
-
-[[maybe_unused]] auto* const kLoopback = ::testing::AddGlobalTestEnvironment(new PrivateLoopback);
+/// The fake cameras run on a private loopback network (GenICamFakeCamera.h).
+[[maybe_unused]] const bool kLoopback = test::registerPrivateLoopback();
 
 // ------------------------------------------------------------ helpers
 
@@ -98,7 +89,8 @@ double elapsedMs(Clock::time_point since) {
 class GenICamTest : public ::testing::Test {
 protected:
     void SetUp() override {
-        if (!loopbackProblem().empty()) GTEST_SKIP() << "no private loopback network: " << loopbackProblem();
+        if (const std::string& problem = test::privateLoopbackProblem(); !problem.empty())
+            GTEST_SKIP() << "no private loopback network: " << problem;
         left_.start();
         right_.start();
     }
