@@ -10,6 +10,8 @@
 // shuffled. Every
 // naive result is checked against the matcher's before timing.
 
+#include "../analyze/CraftedFeature.h"
+
 #include <avatar/analyze/CameraModel.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
 #include <avatar/analyze/StereoCoordinateCalculator.h>
@@ -24,6 +26,8 @@
 
 namespace avatar {
 namespace {
+
+using test::featureFromPixels;
 
 StereoSystemConfig rig() {
     StereoSystemConfig c;
@@ -105,38 +109,6 @@ Scene makeScene(int n) {
     return scene;
 }
 
-/// A feature from its pixel set, with the geometry of Feature.h (as the
-/// labelling computes it).
-Feature featureFromPixels(const std::vector<cv::Point>& pixels) {
-    Feature f;
-    f.area = static_cast<int>(pixels.size());
-    int xl = pixels[0].x, xr = xl, yt = pixels[0].y, yb = yt;
-    double sx = 0.0, sy = 0.0;
-    for (const cv::Point& p : pixels) {
-        xl = std::min(xl, p.x);
-        xr = std::max(xr, p.x);
-        yt = std::min(yt, p.y);
-        yb = std::max(yb, p.y);
-        sx += p.x;
-        sy += p.y;
-    }
-    f.centroid = f.weightedCentroid = {sx / f.area, sy / f.area};
-    int topMin = xr, topMax = xl, botMin = xr, botMax = xl;
-    int rightMin = yb, rightMax = yt, leftMin = yb, leftMax = yt;
-    for (const cv::Point& p : pixels) {
-        if (p.y == yt) topMin = std::min(topMin, p.x), topMax = std::max(topMax, p.x);
-        if (p.y == yb) botMin = std::min(botMin, p.x), botMax = std::max(botMax, p.x);
-        if (p.x == xr) rightMin = std::min(rightMin, p.y), rightMax = std::max(rightMax, p.y);
-        if (p.x == xl) leftMin = std::min(leftMin, p.y), leftMax = std::max(leftMax, p.y);
-    }
-    f.boundary = {cv::Point(topMin, yt), cv::Point(topMax, yt),    cv::Point(xr, rightMin),
-                  cv::Point(xr, rightMax), cv::Point(botMax, yb), cv::Point(botMin, yb),
-                  cv::Point(xl, leftMax),  cv::Point(xl, leftMin)};
-    f.box = cv::Rect(xl, yt, xr - xl + 1, yb - yt + 1);
-    f.aspectRatio = static_cast<double>(f.box.width) / f.box.height;
-    f.areaRatio = static_cast<double>(f.area) / f.box.area();
-    return f;
-}
 
 /// A disc of radius @p r about pixel @p c; variant 1..3 loses one more pixel
 /// of its rim (as a demosaic fringe would), so that look-alikes differ a little.
