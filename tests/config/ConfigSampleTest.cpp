@@ -116,7 +116,7 @@ TEST(ConfigSamples, Seabed) {
     const TargetType& dollar = c.targets.targets[0];
     EXPECT_EQ(dollar.name, "sand_dollar");
     ASSERT_TRUE(dollar.brightness.has_value());
-    EXPECT_EQ(*dollar.brightness, (Range{15000, 196605}));
+    EXPECT_EQ(*dollar.brightness, (Range{3500, 196605}));
     EXPECT_EQ(dollar.erodeKernelSize, 5);
 
     const LightingConfig& l = c.lighting;
