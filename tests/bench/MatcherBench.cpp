@@ -79,20 +79,26 @@ struct Scene {
     std::vector<Feature> left, right;
 };
 
+/// A deterministic permutation of 0..n-1 (Fisher-Yates over an LCG seeded by @p seed).
+std::vector<int> shuffledOrder(int n, unsigned seed) {
+    std::vector<int> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    unsigned state = seed;
+    for (int i = n - 1; i > 0; --i) {
+        state = state * 1664525u + 1013904223u;
+        std::swap(order[static_cast<std::size_t>(i)],
+                  order[(state >> 8) % static_cast<unsigned>(i + 1)]);
+    }
+    return order;
+}
+
 Scene makeScene(int n) {
     const StereoSystemConfig s = rig();
     const RigidTransform rTl = rightTLeft(s);
     const int cols = std::max(1, static_cast<int>(std::ceil(std::sqrt(n * 4.0 / 3.0))));
     const int rows = (n + cols - 1) / cols;
     const double dx = 1200.0 / cols, dy = 900.0 / rows;
-    std::vector<int> order(static_cast<std::size_t>(n));
-    std::iota(order.begin(), order.end(), 0);
-    unsigned state = 2024u;
-    for (int i = n - 1; i > 0; --i) {
-        state = state * 1664525u + 1013904223u;
-        std::swap(order[static_cast<std::size_t>(i)],
-                  order[(state >> 8) % static_cast<unsigned>(i + 1)]);
-    }
+    const std::vector<int> order = shuffledOrder(n, 2024u);
     Scene scene;
     scene.right.resize(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
@@ -133,14 +139,7 @@ Scene makeDenseScene(int n) {
     const int rows = (n + cols - 1) / cols;
     const double pitchX = 604.0 / cols, pitchY = 464.0 / rows;
     const int radius = std::max(1, std::min(60, static_cast<int>(0.3 * std::min(pitchX, pitchY))));
-    std::vector<int> order(static_cast<std::size_t>(n));
-    std::iota(order.begin(), order.end(), 0);
-    unsigned state = 77u;
-    for (int i = n - 1; i > 0; --i) {
-        state = state * 1664525u + 1013904223u;
-        std::swap(order[static_cast<std::size_t>(i)],
-                  order[(state >> 8) % static_cast<unsigned>(i + 1)]);
-    }
+    const std::vector<int> order = shuffledOrder(n, 77u);
     Scene scene;
     scene.right.resize(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
