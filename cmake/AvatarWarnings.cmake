@@ -27,7 +27,9 @@ function(avatar_library name)
   avatar_set_warnings(avatar_${name})
   install(TARGETS avatar_${name} EXPORT AvatarTargets
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
-  install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  # Headers under an internal/ folder are shared between the AVATAR libraries
+  # only; tests/install checks that none is installed.
+  install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} PATTERN internal EXCLUDE)
 endfunction()
 
 # avatar_executable(<name> SOURCES ... DEPS ...)

@@ -1,6 +1,13 @@
 #include <avatar/acquire/AcquireStereoImagePair.h>
 
+#include <avatar/config/ConfigXml.h>
+
 namespace avatar {
+
+std::optional<AvatarConfig> AcquiredPair::recordedConfig() const {
+    if (!recordedConfigXml) return std::nullopt;
+    return readConfigString(*recordedConfigXml, recordedConfigSource);
+}
 
 AcquireStereoImagePair::AcquireStereoImagePair(std::uint32_t groupSize) : groupSize_(groupSize) {
     if (groupSize < 1 || groupSize > 99999)

@@ -2,6 +2,7 @@
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
 #include <avatar/common/Logging.h>
+#include <avatar/config/ConfigXml.h>
 
 #include <log4cpp/Category.hh>
 #include <opencv2/core.hpp>
@@ -65,29 +66,22 @@ private:
     std::thread thread_;
 };
 
-namespace {
-
-// Built-in stages that need another built-in stage earlier in the chain.
-const std::pair<const char*, const char*> kNeeds[] = {
-    {"erode_restore", "color_filter"}, {"locate_features", "color_filter"},
-    {"match", "locate_features"},      {"triangulate", "match"},
-};
-
-}  // namespace
-
 AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
                                                const std::filesystem::path& configDir,
                                                const StageRegistry& registry)
     : config_(config) {
-    std::set<std::string> seen;
+    // The configuration's own rules first (ConfigError naming the element):
+    // every stage below is built from validated values.
+    validateConfig(config_);
+    std::set<std::string, std::less<>> seen;
     const StageContext context{config_, configDir.string()};
     for (const std::string& name : config_.analysis.stages) {
-        if (!seen.insert(name).second)
-            throw InvalidArgument("analysis stage '" + name + "' appears twice in the pipeline");
-        for (const auto& [stage, needed] : kNeeds)
-            if (name == stage && !seen.count(needed))
-                throw InvalidArgument("analysis stage '" + name + "' needs '" + needed + "' before it");
-        stages_.push_back(registry.create(name, context));
+        std::unique_ptr<ProcessStereoImagePair> stage = registry.create(name, context);
+        for (const std::string_view needed : stage->needs())
+            if (!seen.count(needed))
+                throw InvalidArgument("analysis stage '" + name + "' needs '" + std::string(needed) + "' before it");
+        seen.insert(name);
+        stages_.push_back(std::move(stage));
         names_.push_back(name);
     }
     worker_ = std::make_unique<Worker>();

@@ -2,6 +2,7 @@
 
 #include <avatar/analyze/ImageFeatureLocator.h>
 #include <avatar/common/Error.h>
+#include <avatar/config/ConfigXml.h>
 
 #include <opencv2/core.hpp>
 
@@ -273,16 +274,6 @@ void hsvRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) {
         hsvRow<S, T>(static_cast<const S*>(px), out, n, plan.hsvD);
 }
 
-std::string describeRange(const Range& r) {
-    return "[" + std::to_string(r.min) + ", " + std::to_string(r.max) + "]";
-}
-
-void requireOrdered(const Range& r, const TargetType& type, const char* what) {
-    if (std::isnan(r.min) || std::isnan(r.max) || r.min > r.max)
-        throw InvalidArgument("colorFilterMasks: type '" + type.name + "' has an invalid " + what +
-                              " range " + describeRange(r));
-}
-
 /// Integer limits [lo, hi] on an integer quantity v equivalent to r.min <= v <= r.max.
 std::pair<double, double> integerLimits(const Range& r, double vMax) {
     const double lo = std::clamp(std::ceil(r.min), -1.0, vMax + 1.0);
@@ -354,30 +345,10 @@ bool floatIsExact(const TargetType& type, std::uint32_t n) {
     return ok(type.redGreen) && ok(type.redBlue) && ok(type.blueGreen);
 }
 
-void validateType(const TargetType& type) {
-    switch (type.filter) {
-        case ColorFilterMethod::RgbRatio:
-            requireOrdered(type.redGreen, type, "redGreen");
-            requireOrdered(type.redBlue, type, "redBlue");
-            requireOrdered(type.blueGreen, type, "blueGreen");
-            if (type.brightness) requireOrdered(*type.brightness, type, "brightness");
-            return;
-        case ColorFilterMethod::Hsv:
-            if (std::isnan(type.hsv.hue.min) || std::isnan(type.hsv.hue.max))
-                throw InvalidArgument("colorFilterMasks: type '" + type.name + "' has an invalid hue range " +
-                                      describeRange(type.hsv.hue));
-            requireOrdered(type.hsv.saturation, type, "saturation");
-            requireOrdered(type.hsv.value, type, "value");
-            return;
-    }
-    throw InvalidArgument("colorFilterMasks: type '" + type.name + "' has an unknown filter method " +
-                          std::to_string(static_cast<int>(type.filter)));
-}
-
 template <typename S>
 Plan makePlan(const TargetType& type, cv::Size size, int bitDepth) {
     constexpr std::uint32_t n = std::numeric_limits<S>::max();
-    validateType(type);
+    validateTargetType(type);  // the configuration's rules: ranges ordered, limits not NaN
     Plan plan;
     plan.window = searchWindow(type, size);
     // Float (twice the SIMD width) whenever it is exact for this type's

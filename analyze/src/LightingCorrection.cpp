@@ -2,6 +2,7 @@
 
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
+#include <avatar/config/ConfigXml.h>
 
 #include <log4cpp/Category.hh>
 #include <opencv2/core.hpp>
@@ -25,19 +26,6 @@ log4cpp::Category& logger() { return logging::category("analyze"); }
 constexpr float kMaxFactor = 131072.0f;
 
 std::string sizeText(cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
-
-void requireGain(double v, const std::string& what) {
-    if (!std::isfinite(v) || v < 0.0)
-        throw InvalidArgument("LightingCorrector: " + what + " must be finite and >= 0, got " +
-                              std::to_string(v));
-}
-
-void requireFalloff(const FalloffChannel& f, const std::string& channel) {
-    requireGain(f.coefficient, channel + " falloff coefficient");
-    if (!std::isfinite(f.exponent))
-        throw InvalidArgument("LightingCorrector: " + channel + " falloff exponent must be finite, got " +
-                              std::to_string(f.exponent));
-}
 
 cv::Mat readTemplate(const std::filesystem::path& path) {
     std::error_code ec;
@@ -94,22 +82,8 @@ void applyImage(cv::Mat& bgr, const cv::Mat& factors, float fullScale) {
 
 LightingCorrector::LightingCorrector(const LightingConfig& config, const std::filesystem::path& configDir)
     : config_(config), configDir_(configDir) {
-    if (config_.frameAverageEnabled) {
-        requireGain(config_.gainsRgb[0], "red gain");
-        requireGain(config_.gainsRgb[1], "green gain");
-        requireGain(config_.gainsRgb[2], "blue gain");
-    }
-    if (!config_.patternEnabled) return;
-    if (config_.templateImagePath.empty()) {
-        requireFalloff(config_.red, "red");
-        requireFalloff(config_.green, "green");
-        requireFalloff(config_.blue, "blue");
-        if (!std::isfinite(config_.patternCentrePx[0]) || !std::isfinite(config_.patternCentrePx[1]))
-            throw InvalidArgument("LightingCorrector: the pattern centre (" +
-                                  std::to_string(config_.patternCentrePx[0]) + ", " +
-                                  std::to_string(config_.patternCentrePx[1]) + ") is not finite");
-        return;
-    }
+    validateLightingConfig(config_);
+    if (!config_.patternEnabled || config_.templateImagePath.empty()) return;
     templatePath_ = config_.templateImagePath;
     if (templatePath_.is_relative() && !configDir_.empty()) templatePath_ = configDir_ / templatePath_;
     template_ = readTemplate(templatePath_);

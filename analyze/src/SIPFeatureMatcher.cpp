@@ -1,8 +1,11 @@
 #include <avatar/analyze/SIPFeatureMatcher.h>
 
-#include <avatar/analyze/CameraModel.h>
+#include "PointGrid.h"
+
+#include <avatar/common/CameraModel.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
+#include <avatar/config/ConfigXml.h>
 
 #include <log4cpp/Category.hh>
 #include <opencv2/core.hpp>
@@ -138,99 +141,6 @@ bool areasCompatible(const Feature& a, const Feature& b, double maxAreaRatio) {
     return large <= maxAreaRatio * small;
 }
 
-/// Camera matrix K of Appendix A in the Bouguet convention (skew fc1 * alphaC).
-cv::Matx33d cameraMatrix(const CameraIntrinsics& c) {
-    return {c.fc[0], c.fc[0] * c.alphaC, c.cc[0], 0.0, c.fc[1], c.cc[1], 0.0, 0.0, 1.0};
-}
-
-cv::Matx33d skew(const cv::Vec3d& t) {
-    return {0.0, -t[2], t[1], t[2], 0.0, -t[0], -t[1], t[0], 0.0};
-}
-
-/// A uniform grid over 2-D points with compressed cell lists. Queries visit the
-/// cells that overlap a rectangle, so they cost the cells and points near the
-/// rectangle, not all points. Points that are not finite are left out.
-class PointGrid {
-public:
-    explicit PointGrid(const std::vector<cv::Point2d>& points) {
-        double minX = std::numeric_limits<double>::infinity(), minY = minX;
-        double maxX = -minX, maxY = -minX;
-        std::size_t finite = 0;
-        for (const cv::Point2d& p : points) {
-            if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-            minX = std::min(minX, p.x);
-            maxX = std::max(maxX, p.x);
-            minY = std::min(minY, p.y);
-            maxY = std::max(maxY, p.y);
-            ++finite;
-        }
-        if (finite == 0) return;
-        originX_ = minX;
-        originY_ = minY;
-        const double width = std::max(maxX - minX, 1.0);
-        const double height = std::max(maxY - minY, 1.0);
-        // About one point per cell; a flat point set gets a row of cells.
-        const double n = static_cast<double>(finite);
-        cell_ = std::sqrt(width * height / n);
-        const double maxCells = 4.0 * n + 16.0;
-        while ((std::floor(width / cell_) + 1.0) * (std::floor(height / cell_) + 1.0) > maxCells)
-            cell_ *= 2.0;
-        nx_ = static_cast<int>(std::floor(width / cell_)) + 1;
-        ny_ = static_cast<int>(std::floor(height / cell_)) + 1;
-
-        const std::size_t cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
-        start_.assign(cells + 1, 0);
-        std::vector<int> cellOf(points.size(), -1);
-        for (std::size_t i = 0; i < points.size(); ++i) {
-            const cv::Point2d& p = points[i];
-            if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-            const int c = cellX(p.x) + nx_ * cellY(p.y);
-            cellOf[i] = c;
-            ++start_[static_cast<std::size_t>(c) + 1];
-        }
-        for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
-        items_.resize(finite);
-        std::vector<int> fill(start_.begin(), start_.end() - 1);
-        for (std::size_t i = 0; i < points.size(); ++i)
-            if (cellOf[i] >= 0)
-                items_[static_cast<std::size_t>(fill[static_cast<std::size_t>(cellOf[i])]++)] =
-                    static_cast<int>(i);
-    }
-
-    /// Calls visit(index) for every point in the cells overlapping
-    /// [x0, x1] x [y0, y1] (a superset of the points inside it).
-    template <typename Visit>
-    void query(double x0, double y0, double x1, double y1, Visit&& visit) const {
-        if (nx_ == 0 || !(x0 <= x1) || !(y0 <= y1)) return;
-        const int cx0 = cellX(x0), cx1 = cellX(x1);
-        const int cy0 = cellY(y0), cy1 = cellY(y1);
-        for (int cy = cy0; cy <= cy1; ++cy)
-            for (int cx = cx0; cx <= cx1; ++cx) {
-                const std::size_t c = static_cast<std::size_t>(cx + nx_ * cy);
-                for (int k = start_[c]; k < start_[c + 1]; ++k)
-                    visit(items_[static_cast<std::size_t>(k)]);
-            }
-    }
-
-    double cellSize() const { return cell_; }
-    /// The area the cells cover.
-    cv::Rect2d bounds() const { return {originX_, originY_, nx_ * cell_, ny_ * cell_}; }
-
-private:
-    int clampIndex(double v, int n) const {
-        if (!(v > 0.0)) return 0;  // also NaN
-        if (v >= static_cast<double>(n - 1)) return n - 1;
-        return static_cast<int>(v);
-    }
-    int cellX(double x) const { return clampIndex(std::floor((x - originX_) / cell_), nx_); }
-    int cellY(double y) const { return clampIndex(std::floor((y - originY_) / cell_), ny_); }
-
-    double originX_{0.0}, originY_{0.0}, cell_{1.0};
-    int nx_{0}, ny_{0};
-    std::vector<int> start_;
-    std::vector<int> items_;
-};
-
 /// The best admissible right feature of each left feature so far.
 struct Choice {
     int right{-1};
@@ -282,11 +192,19 @@ void validateFeatures(const std::vector<Feature>& features, const char* side) {
     }
 }
 
-void requireConfig(bool ok, const char* field, double value, const char* rule) {
-    if (ok) return;
-    std::ostringstream msg;
-    msg << "SIPFeatureMatcher: " << field << " = " << value << " is invalid: " << rule;
-    throw InvalidArgument(msg.str());
+/// The configuration, after the configuration's own checks (ConfigError naming the element).
+const MatchConfig& checked(const MatchConfig& match, const StereoSystemConfig& stereo) {
+    validateMatchConfig(match);
+    validateStereoConfig(stereo);
+    return match;
+}
+
+/// The geometry of the depth test: the calibration without the registration,
+/// so no base-frame point is computed for a candidate.
+StereoGeometry depthGeometry(const StereoSystemConfig& stereo) {
+    StereoGeometry geometry = stereoGeometry(stereo);
+    geometry.baseTVision.reset();
+    return geometry;
 }
 
 const char* methodName(MatchMethod m) {
@@ -445,64 +363,6 @@ private:
     std::size_t shapeErrors_{0};
 };
 
-/// Liang-Barsky: clips the segment a-b to @p rect; false when nothing is left.
-bool clipSegment(cv::Point2d& a, cv::Point2d& b, const cv::Rect2d& rect) {
-    const cv::Point2d d = b - a;
-    double t0 = 0.0, t1 = 1.0;
-    const double p[4] = {-d.x, d.x, -d.y, d.y};
-    const double q[4] = {a.x - rect.x, rect.x + rect.width - a.x, a.y - rect.y,
-                         rect.y + rect.height - a.y};
-    for (int k = 0; k < 4; ++k) {
-        if (p[k] == 0.0) {
-            if (q[k] < 0.0) return false;
-            continue;
-        }
-        const double t = q[k] / p[k];
-        if (p[k] < 0.0)
-            t0 = std::max(t0, t);
-        else
-            t1 = std::min(t1, t);
-    }
-    if (!(t0 <= t1)) return false;
-    const cv::Point2d start = a;
-    a = start + d * t0;
-    b = start + d * t1;
-    return true;
-}
-
-/// The left-camera depth z of the midpoint triangulation of Figure 3-18, as
-/// StereoCoordinateCalculator::triangulate() computes it, from undistorted
-/// normalised coordinates (already at hand here, so not normalised again).
-/// NaN when the two rays are parallel.
-/// Distance from @p q to the segment [a, b].
-double distanceToSegment(const cv::Point2d& q, const cv::Point2d& a, const cv::Point2d& b) {
-    const cv::Point2d ab = b - a;
-    const double length2 = ab.dot(ab);
-    const double t = length2 > 0.0 ? std::clamp((q - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
-    const cv::Point2d d = q - (a + ab * t);
-    return std::hypot(d.x, d.y);
-}
-
-double midpointDepthMm(const cv::Matx33d& R, const cv::Vec3d& T, const cv::Point2d& xl,
-                       const cv::Point2d& xr) {
-    const cv::Vec3d Xl(xl.x, xl.y, 1.0);
-    const cv::Vec3d Xr(xr.x, xr.y, 1.0);
-    const cv::Vec3d u = R * Xl;
-    const double nXl2 = Xl.dot(Xl);
-    const double nXr2 = Xr.dot(Xr);
-    const double XrU = Xr.dot(u);
-    const double XrT = Xr.dot(T);
-    const double uT = u.dot(T);
-    const double DD = nXl2 * nXr2 - XrU * XrU;
-    if (!(std::abs(DD) > 1e-15 * nXl2 * nXr2)) return std::numeric_limits<double>::quiet_NaN();
-    const double Zl = (XrU * XrT - nXr2 * uT) / DD;
-    const double Zr = (nXl2 * XrT - uT * XrU) / DD;
-    // z of X2 = R^T (Xr Zr - T): the third column of R dotted with Xr Zr - T.
-    const cv::Vec3d v = Xr * Zr - T;
-    const double z2 = R(0, 2) * v[0] + R(1, 2) * v[1] + R(2, 2) * v[2];
-    return 0.5 * (Zl + z2);
-}
-
 std::vector<cv::Point2d> centroids(const std::vector<Feature>& features) {
     std::vector<cv::Point2d> c;
     c.reserve(features.size());
@@ -516,42 +376,10 @@ double shapeError(const Feature& a, const Feature& b, const ShapeMatchConfig& we
     return shapeErrorOf(describe(a), describe(b), weights);
 }
 
-cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo) {
-    // X_r = R X_l + T: X_r, T and R X_l are coplanar, X_r . (T x R X_l) = 0,
-    // so x_r^T [T]x R x_l = 0 (E = [T]x R) for normalised x = K^-1 p, and
-    // p_r^T K_r^-T E K_l^-1 p_l = 0.
-    const cv::Matx33d R = rodrigues(stereo.om);
-    const cv::Vec3d T(stereo.translationMm[0], stereo.translationMm[1], stereo.translationMm[2]);
-    const cv::Matx33d essential = skew(T) * R;
-    const cv::Matx33d kLeftInv = cameraMatrix(stereo.left).inv();
-    const cv::Matx33d kRightInv = cameraMatrix(stereo.right).inv();
-    return kRightInv.t() * essential * kLeftInv;
-}
-
 SIPFeatureMatcher::SIPFeatureMatcher(const MatchConfig& match, const StereoSystemConfig& stereo)
-    : match_(match), stereo_(stereo) {
-    const MatchConfig& m = match_;
-    requireConfig(m.boxDxMin < m.boxDxMax, "boxDxMax", m.boxDxMax, "must exceed boxDxMin");
-    requireConfig(m.boxDyMin < m.boxDyMax, "boxDyMax", m.boxDyMax, "must exceed boxDyMin");
-    requireConfig(m.maxEpipolarDistancePx >= 0.0, "maxEpipolarDistancePx",
-                  m.maxEpipolarDistancePx, "must be >= 0");
-    requireConfig(m.minRangeMm > 0.0, "minRangeMm", m.minRangeMm, "must be > 0");
-    requireConfig(m.minRangeMm < m.maxRangeMm, "maxRangeMm", m.maxRangeMm,
-                  "must exceed minRangeMm");
-    requireConfig(m.shape.magnitudeWeight >= 0.0, "shape.magnitudeWeight",
-                  m.shape.magnitudeWeight, "must be >= 0");
-    requireConfig(m.shape.directionWeight >= 0.0, "shape.directionWeight",
-                  m.shape.directionWeight, "must be >= 0");
-    requireConfig(m.shape.maxError >= 0.0, "shape.maxError", m.shape.maxError, "must be >= 0");
-    requireConfig(m.shape.maxAreaRatio >= 1.0, "shape.maxAreaRatio", m.shape.maxAreaRatio,
-                  "must be >= 1");
-    for (const CameraIntrinsics* c : {&stereo_.left, &stereo_.right}) {
-        const char* name = c == &stereo_.left ? "left.fc" : "right.fc";
-        requireConfig(c->fc[0] > 0.0 && c->fc[1] > 0.0, name, std::min(c->fc[0], c->fc[1]),
-                      "focal lengths must be > 0");
-    }
-    fundamental_ = fundamentalMatrix(stereo_);
-}
+    : match_(checked(match, stereo)),
+      calculator_(depthGeometry(stereo)),
+      fundamental_(fundamentalMatrix(calculator_.geometry())) {}
 
 std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& left,
                                                    const std::vector<Feature>& right) const {
@@ -574,7 +402,7 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
             // Figure 3-16: the right centroid lies in the box
             // (x_l - dxMax, x_l - dxMin) x (y_l - dyMax, y_l - dyMin).
             const std::vector<cv::Point2d> rightCentroids = centroids(right);
-            const PointGrid grid(rightCentroids);
+            const detail::PointGrid grid(rightCentroids);
             for (std::size_t i = 0; i < left.size(); ++i) {
                 const cv::Point2d& l = left[i].centroid;
                 grid.query(l.x - match_.boxDxMax, l.y - match_.boxDyMax, l.x - match_.boxDxMin,
@@ -590,21 +418,21 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
             break;
         }
         case MatchMethod::EpipolarLine: {
+            const StereoGeometry& stereo = calculator_.geometry();
             // Undistorted normalised coordinates of the right centroids and
             // their undistorted pixels K_r x_n.
             std::vector<cv::Point2d> rightNormalized, rightIdeal;
             rightNormalized.reserve(right.size());
             rightIdeal.reserve(right.size());
             for (const Feature& f : right) {
-                rightNormalized.push_back(normalizePixel(stereo_.right, f.centroid));
-                rightIdeal.push_back(normalizedToPixel(stereo_.right, rightNormalized.back()));
+                rightNormalized.push_back(normalizePixel(stereo.right, f.centroid));
+                rightIdeal.push_back(normalizedToPixel(stereo.right, rightNormalized.back()));
             }
-            const PointGrid grid(rightIdeal);
-            const cv::Matx33d R = rodrigues(stereo_.om);
-            const cv::Vec3d T(stereo_.translationMm[0], stereo_.translationMm[1],
-                              stereo_.translationMm[2]);
-            const cv::Matx33d kLeft = cameraMatrix(stereo_.left);
-            const cv::Matx33d kRight = cameraMatrix(stereo_.right);
+            const detail::PointGrid grid(rightIdeal);
+            const cv::Matx33d R = rotationMatrix(stereo.rightTLeft);
+            const cv::Vec3d T = translationVector(stereo.rightTLeft);
+            const cv::Matx33d kLeft = cameraMatrix(stereo.left);
+            const cv::Matx33d kRight = cameraMatrix(stereo.right);
             const double maxDistance = match_.maxEpipolarDistancePx;
             // Candidates lie within this margin of the depth range's segment of
             // the epipolar line (the query covers exactly that band); it is wider
@@ -614,7 +442,7 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
             std::vector<std::size_t> seen(right.size(), 0);
 
             for (std::size_t i = 0; i < left.size(); ++i) {
-                const cv::Point2d xl = normalizePixel(stereo_.left, left[i].centroid);
+                const cv::Point2d xl = normalizePixel(stereo.left, left[i].centroid);
                 const cv::Vec3d pl = kLeft * cv::Vec3d(xl.x, xl.y, 1.0);
                 cv::Vec3d line = fundamental_ * pl;
                 const double norm = std::hypot(line[0], line[1]);
@@ -652,7 +480,7 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
                 area.y -= margin;
                 area.width += 2.0 * margin;
                 area.height += 2.0 * margin;
-                if (!clipSegment(a, b, area)) continue;
+                if (!detail::clipSegment(a, b, area)) continue;
                 const double length = std::hypot(b.x - a.x, b.y - a.y);
                 const int pieces =
                     std::max(1, static_cast<int>(std::ceil(length / grid.cellSize())));
@@ -674,8 +502,11 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
                             // Near the depth range's segment, not only near the
                             // line: nearly parallel rays (disparity ~ 0) have a
                             // meaningless midpoint depth.
-                            if (!(distanceToSegment(q, segmentNear, segmentFar) <= margin)) return;
-                            const double depth = midpointDepthMm(R, T, xl, rightNormalized[uj]);
+                            if (!(detail::distanceToSegment(q, segmentNear, segmentFar) <= margin)) return;
+                            // Parallel rays have no point and are no candidate.
+                            const auto point = calculator_.triangulateNormalized(xl, rightNormalized[uj]);
+                            if (!point) return;
+                            const double depth = point->leftMm.z;
                             if (depth >= match_.minRangeMm && depth <= match_.maxRangeMm)
                                 run.consider(i, j);
                         });

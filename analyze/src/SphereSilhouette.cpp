@@ -1,4 +1,4 @@
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/analyze/SphereSilhouette.h>
 
 #include <opencv2/core.hpp>

@@ -1,6 +1,7 @@
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
 #include <avatar/common/StereoImagePairFileIO.h>
+#include <avatar/common/internal/Text.h>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -41,18 +42,6 @@ std::uint32_t parseNumber(const std::string& name, const std::string& part, cons
         throw FormatError("raw file name '" + name + "': " + what + " '" + part + "' is not " +
                           (digits != 0 ? std::to_string(digits) + " digits" : "a number"));
     return value;
-}
-
-std::vector<std::string> split(const std::string& s, char sep) {
-    std::vector<std::string> parts;
-    std::size_t start = 0;
-    for (std::size_t i = 0; i <= s.size(); ++i) {
-        if (i == s.size() || s[i] == sep) {
-            parts.push_back(s.substr(start, i - start));
-            start = i + 1;
-        }
-    }
-    return parts;
 }
 
 void checkWritable(const cv::Mat& image, const fs::path& path) {
@@ -109,7 +98,9 @@ RawImageName RawImageName::parse(const std::string& fileName) {
     const std::string ext = dot == std::string::npos ? "" : name.substr(dot);
     if (ext != ".raw" && ext != ".png")
         throw FormatError("raw file name '" + name + "': extension must be .raw or .png");
-    const auto parts = split(name.substr(0, dot), '_');
+    const std::string stem = name.substr(0, dot);
+    std::vector<std::string> parts;
+    for (const std::string_view part : text::split(stem, '_')) parts.emplace_back(part);
     if (parts.size() != 8)
         throw FormatError("raw file name '" + name + "': expected 8 fields separated by '_' "
                           "(side_group_member_WxH_bits_channels_layout_order), got " +

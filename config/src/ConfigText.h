@@ -4,6 +4,7 @@
 /// numbers and the words that name enumerators.
 
 #include <avatar/common/ImageFormat.h>
+#include <avatar/common/internal/Text.h>
 #include <avatar/config/AnalysisConfig.h>
 #include <avatar/config/MatchConfig.h>
 #include <avatar/config/TargetConfig.h>
@@ -18,7 +19,7 @@ namespace avatar::config_internal {
 
 /// The shortest decimal text that reads back (std::from_chars) to exactly @p value,
 /// e.g. "1049.13", "1e+09", "-0". Non-finite values give "inf", "-inf" or "nan".
-std::string formatDouble(double value);
+using text::formatDouble;
 
 /// The document's words for the enumerators of @p Enum: a table, the list for
 /// messages ("a, b or c") and the C++ type name for messages about values

@@ -76,6 +76,14 @@ public:
         }
     }
 
+    /// As range(), and min < max: an interval that must not be empty.
+    void openRange(const Range& r, double lo, double hi, const std::string& path) const {
+        range(r, lo, hi, path);
+        if (r.min == r.max) {
+            fail(path, "min " + formatDouble(r.min) + " equals max; the range must not be empty");
+        }
+    }
+
     template <std::size_t N>
     void allFinite(const std::array<double, N>& values, const std::string& path) const {
         for (std::size_t i = 0; i < N; ++i) {
@@ -192,8 +200,8 @@ void validateWindow(const Checker& k, const SearchWindow& w, const CameraHardwar
     }
 }
 
-void validateTarget(const Checker& k, const TargetType& t, const CameraHardwareConfig& camera,
-                    const std::string& p) {
+/// Everything of a target type but its search window, which needs the image size.
+void validateTarget(const Checker& k, const TargetType& t, const std::string& p) {
     if (!isTargetName(t.name)) {
         k.fail(p + "/@name", "must be a non-empty name of letters, digits, '_' and '-', got " + quote(t.name));
     }
@@ -215,7 +223,6 @@ void validateTarget(const Checker& k, const TargetType& t, const CameraHardwareC
     k.range(t.area, 0.0, kInf, p + "/area");
     k.range(t.aspectRatio, 0.0, kInf, p + "/aspectRatio");
     k.range(t.areaRatio, 0.0, 1.0, p + "/areaRatio");
-    validateWindow(k, t.window, camera, p + "/window");
     k.enumerator(t.shape, p + "/shape");
 }
 
@@ -226,7 +233,8 @@ void validateTargets(const Checker& k, const TargetConfig& targets, const Camera
     }
     for (std::size_t i = 0; i < targets.targets.size(); ++i) {
         const std::string tp = p + "/target[" + std::to_string(i + 1) + "]";
-        validateTarget(k, targets.targets[i], camera, tp);
+        validateTarget(k, targets.targets[i], tp);
+        validateWindow(k, targets.targets[i].window, camera, tp + "/window");
         for (std::size_t j = 0; j < i; ++j) {
             if (targets.targets[j].name == targets.targets[i].name) {
                 k.fail(tp + "/@name", "duplicate target name " + quote(targets.targets[i].name) +
@@ -239,11 +247,12 @@ void validateTargets(const Checker& k, const TargetConfig& targets, const Camera
 void validateMatch(const Checker& k, const MatchConfig& m) {
     const std::string p = "/avatar/match";
     k.enumerator(m.method, p + "/method");
-    k.range(Range{m.boxDxMin, m.boxDxMax}, -kInf, kInf, p + "/box/dx");
-    k.range(Range{m.boxDyMin, m.boxDyMax}, -kInf, kInf, p + "/box/dy");
+    // The box is open (dxMin < dx < dxMax): equal limits admit nothing.
+    k.openRange(Range{m.boxDxMin, m.boxDxMax}, -kInf, kInf, p + "/box/dx");
+    k.openRange(Range{m.boxDyMin, m.boxDyMax}, -kInf, kInf, p + "/box/dy");
     k.positive(m.maxEpipolarDistancePx, p + "/epipolarLine/maxDistancePx");
     k.positive(m.minRangeMm, p + "/epipolarLine/rangeMm/min");
-    k.range(Range{m.minRangeMm, m.maxRangeMm}, 0.0, kInf, p + "/epipolarLine/rangeMm");
+    k.openRange(Range{m.minRangeMm, m.maxRangeMm}, 0.0, kInf, p + "/epipolarLine/rangeMm");
     const std::string s = p + "/shape";
     k.between(m.shape.magnitudeWeight, 0.0, kInf, s + "/magnitudeWeight");
     k.between(m.shape.directionWeight, 0.0, kInf, s + "/directionWeight");
@@ -254,17 +263,22 @@ void validateMatch(const Checker& k, const MatchConfig& m) {
     k.between(m.shape.maxAreaRatio, 1.0, kInf, s + "/maxAreaRatio");
 }
 
-void validateIntrinsics(const Checker& k, const CameraIntrinsics& in, const CameraHardwareConfig& camera,
-                        const std::string& p) {
+void validateIntrinsics(const Checker& k, const CameraIntrinsics& in, const std::string& p) {
     for (std::size_t i = 0; i < 2; ++i) {
         k.positive(in.fc[i], p + "/fc", Checker::component(i));
     }
+    k.allFinite(in.cc, p + "/cc");
+    k.finite(in.alphaC, p + "/alphaC");
+    k.allFinite(in.kc, p + "/kc");
+}
+
+/// The principal point lies inside the image.
+void validatePrincipalPoint(const Checker& k, const CameraIntrinsics& in, const CameraHardwareConfig& camera,
+                            const std::string& p) {
     k.between(in.cc[0], 0.0, camera.width, p + "/cc", Checker::component(0) + " (x, image width " +
                                                           std::to_string(camera.width) + ")");
     k.between(in.cc[1], 0.0, camera.height, p + "/cc", Checker::component(1) + " (y, image height " +
                                                            std::to_string(camera.height) + ")");
-    k.finite(in.alphaC, p + "/alphaC");
-    k.allFinite(in.kc, p + "/kc");
 }
 
 void validateRotation(const Checker& k, const std::array<double, 9>& r, const std::string& path) {
@@ -290,10 +304,13 @@ void validateRotation(const Checker& k, const std::array<double, 9>& r, const st
     }
 }
 
-void validateStereo(const Checker& k, const StereoSystemConfig& s, const CameraHardwareConfig& camera) {
-    const std::string p = "/avatar/stereo";
-    validateIntrinsics(k, s.left, camera, p + "/left");
-    validateIntrinsics(k, s.right, camera, p + "/right");
+constexpr const char* kStereoPath = "/avatar/stereo";
+
+/// Everything of the calibration but the principal points' place in the image.
+void validateStereo(const Checker& k, const StereoSystemConfig& s) {
+    const std::string p = kStereoPath;
+    validateIntrinsics(k, s.left, p + "/left");
+    validateIntrinsics(k, s.right, p + "/right");
     k.allFinite(s.om, p + "/om");
     k.allFinite(s.translationMm, p + "/translationMm");
     const auto& t = s.translationMm;
@@ -382,9 +399,48 @@ void validate(const AvatarConfig& config, const ErrorSite& site) {
     validateCamera(k, config.camera);
     validateTargets(k, config.targets, config.camera);
     validateMatch(k, config.match);
-    validateStereo(k, config.stereo, config.camera);
+    validateStereo(k, config.stereo);
+    validatePrincipalPoint(k, config.stereo.left, config.camera, std::string(kStereoPath) + "/left");
+    validatePrincipalPoint(k, config.stereo.right, config.camera, std::string(kStereoPath) + "/right");
     validateLighting(k, config.lighting);
     validateAnalysis(k, config.analysis);
 }
 
 }  // namespace avatar::config_internal
+
+namespace avatar {
+
+namespace {
+
+/// Checks a value built in code: errors have source "<memory>" and line 0.
+template <typename Check>
+void checkInMemory(Check&& check) {
+    const config_internal::ErrorSite site("<memory>", nullptr);
+    check(config_internal::Checker(site));
+}
+
+}  // namespace
+
+void validateMatchConfig(const MatchConfig& match) {
+    checkInMemory([&](const config_internal::Checker& k) { config_internal::validateMatch(k, match); });
+}
+
+void validateStereoConfig(const StereoSystemConfig& stereo) {
+    checkInMemory([&](const config_internal::Checker& k) { config_internal::validateStereo(k, stereo); });
+}
+
+void validateLightingConfig(const LightingConfig& lighting) {
+    checkInMemory([&](const config_internal::Checker& k) { config_internal::validateLighting(k, lighting); });
+}
+
+void validateTargetType(const TargetType& type) {
+    checkInMemory([&](const config_internal::Checker& k) {
+        config_internal::validateTarget(k, type, "/avatar/targets/target[@name='" + type.name + "']");
+    });
+}
+
+void validateAnalysisConfig(const AnalysisConfig& analysis) {
+    checkInMemory([&](const config_internal::Checker& k) { config_internal::validateAnalysis(k, analysis); });
+}
+
+}  // namespace avatar

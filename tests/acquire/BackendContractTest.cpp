@@ -40,7 +40,7 @@
 #include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/acquire/SessionLog.h>
 #include <avatar/config/ConfigXml.h>
-#include <avatar/render/AcquireSIPSimulation.h>
+#include <avatar/acquire/AcquireSIPSimulation.h>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -385,7 +385,7 @@ public:
         render::RenderOptions options;
         options.sensor = render::sensorFormatFrom(config(0).camera);
         options.supersampling = 2;
-        simulation_ = std::make_unique<render::AcquireSIPSimulation>(scene, stereo, options);
+        simulation_ = std::make_unique<AcquireSIPSimulation>(scene, stereo, options);
         simulation_->setCameraIds(backendIds().first, backendIds().second);
     }
     AcquireStereoImagePair& backend() override { return *simulation_; }
@@ -403,7 +403,7 @@ public:
     std::pair<std::string, std::string> backendIds() const override { return {"sim-cam-L", "sim-cam-R"}; }
 
 private:
-    std::unique_ptr<render::AcquireSIPSimulation> simulation_;
+    std::unique_ptr<AcquireSIPSimulation> simulation_;
 };
 
 // ------------------------------------------------------------ the backends

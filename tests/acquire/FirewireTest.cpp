@@ -4,8 +4,8 @@
 #include "TestUtil.h"
 
 #include <avatar/acquire/AcquireSIPFirewire.h>
-#include <avatar/acquire/AvatarCameras.h>
-#include <avatar/acquire/FirewireBus.h>
+#include "AvatarCameras.h"
+#include "FirewireBus.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>

@@ -1,7 +1,7 @@
 #include "TempDir.h"
 #include "TestUtil.h"
 
-#include <avatar/acquire/RawImageFile.h>
+#include "RawImageFile.h"
 #include <avatar/common/Error.h>
 #include <avatar/common/StereoImagePairFileIO.h>
 

@@ -8,7 +8,7 @@
 // Its cameras own real DMA-like buffers and check the buffer discipline: a
 // dequeue with no free buffer, an enqueue of a buffer that is not dequeued, or
 // any call on a closed camera is a violation the tests assert never happens.
-#include <avatar/acquire/FirewireBus.h>
+#include "FirewireBus.h"
 
 #include <cstdint>
 #include <cstring>

@@ -1,5 +1,6 @@
 // Every kind of damage a session can suffer, each with the exact report a
 // reader gives, and the proof that the intact rest is still read.
+#include "RawImageFile.h"
 #include "SessionLogTestUtil.h"
 #include "TempDir.h"
 #include "TestUtil.h"

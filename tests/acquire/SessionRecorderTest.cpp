@@ -2,6 +2,7 @@
 // with a small queue (pairs dropped, counted and logged, never blocking the
 // caller), a sink that runs out of space (failures counted, recording goes on),
 // and no configuration lost with a dropped pair.
+#include "RawImageFile.h"
 #include "SessionLogTestUtil.h"
 #include "TempDir.h"
 #include "TestUtil.h"

@@ -6,7 +6,7 @@
 // report). Method and results: docs/accuracy.md.
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/common/VisionTargets.h>
 #include <avatar/config/AvatarConfig.h>
 #include <avatar/config/ConfigXml.h>

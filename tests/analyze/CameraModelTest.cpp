@@ -1,6 +1,6 @@
 #include "ScorpionCalibration.h"
 
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 
 #include <gtest/gtest.h>
 

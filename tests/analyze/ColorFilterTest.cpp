@@ -107,8 +107,9 @@ TEST(ColorFilter, ZeroRedPassesOnlyWhenRatioMinimaAreZero) {
 }
 
 TEST(ColorFilter, InfiniteRatioFailsEvenAnUnboundedMax) {
+    // The largest max a configuration can hold (limits are finite, validateTargetType).
     const std::vector<Bgr> px = {{100, 0, 100}, {0, 100, 100}, {100, 100, 100}};
-    const double inf = std::numeric_limits<double>::infinity();
+    const double inf = std::numeric_limits<double>::max();
     const TargetType type = ratioType({0.0, inf}, {0.0, inf}, {0.0, inf});
     EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 3), 16, type)), (std::vector<int>{0, 0, 255}));
 }

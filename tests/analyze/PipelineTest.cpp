@@ -4,7 +4,7 @@
 #include "ScorpionCalibration.h"
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/common/Error.h>
 #include <avatar/config/ConfigXml.h>
 

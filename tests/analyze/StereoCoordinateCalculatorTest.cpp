@@ -1,7 +1,7 @@
 #include "ScorpionCalibration.h"
 
-#include <avatar/analyze/CameraModel.h>
-#include <avatar/analyze/StereoCoordinateCalculator.h>
+#include <avatar/common/CameraModel.h>
+#include <avatar/common/StereoCoordinateCalculator.h>
 #include <avatar/common/Error.h>
 
 #include <gtest/gtest.h>
@@ -26,7 +26,7 @@ TEST(StereoCoordinateCalculator, HandComputedRectifiedPair) {
     // |Xl|^2 = |Xr|^2 = 1.0029, Xr.u = 0.9979, Xr.T = 5, u.T = -5,
     // DD = 1.0029^2 - 0.9979^2 = 0.010004, NN1 = NN2 = 0.9979*5 + 1.0029*5 = 10.004,
     // Zl = Zr = 1000, X1 = (50, 20, 1000), X2 = Xr*1000 - T = (50, 20, 1000).
-    const StereoCoordinateCalculator calc(c);
+    const StereoCoordinateCalculator calc(stereoGeometry(c));
     const auto p = calc.triangulate({550.0, 420.0}, {450.0, 420.0});
     ASSERT_TRUE(p);
     expectNear(p->leftMm, {50.0, 20.0, 1000.0}, 1e-9);
@@ -40,7 +40,7 @@ TEST(StereoCoordinateCalculator, ExactProjectionsGiveTheTruth) {
     configs[1].right.kc = {-0.18, 0.05, -0.002, 0.001, 0.0};
     configs[1].left.alphaC = 0.002;
     for (const StereoSystemConfig& c : configs) {
-        const StereoCoordinateCalculator calc(c);
+        const StereoCoordinateCalculator calc(stereoGeometry(c));
         const RigidTransform rTl = rightTLeft(c);
         for (double z : {400.0, 900.0, 1700.0, 2500.0})
             for (double y : {-0.3, 0.0, 0.25})
@@ -61,7 +61,7 @@ TEST(StereoCoordinateCalculator, TransformsToTheBaseFrame) {
     StereoSystemConfig c = test::scorpionCalibration();
     c.baseTVision = makeRigidTransform(rodrigues({0.0, M_PI / 2.0, 0.0}),
                                        cv::Vec3d(500.0, -200.0, 100.0));
-    const StereoCoordinateCalculator calc(c);
+    const StereoCoordinateCalculator calc(stereoGeometry(c));
     ASSERT_TRUE(calc.hasRegistration());
     const cv::Point3d truth(100.0, 50.0, 800.0);
     const auto l = projectPoint(c.left, truth);
@@ -73,7 +73,7 @@ TEST(StereoCoordinateCalculator, TransformsToTheBaseFrame) {
 }
 
 TEST(StereoCoordinateCalculator, NoRegistrationIsAnError) {
-    const StereoCoordinateCalculator calc(test::scorpionCalibration());
+    const StereoCoordinateCalculator calc(stereoGeometry(test::scorpionCalibration()));
     EXPECT_FALSE(calc.hasRegistration());
     EXPECT_THROW(calc.visionToBase({0.0, 0.0, 1.0}), InvalidArgument);
 }
@@ -82,7 +82,7 @@ TEST(StereoCoordinateCalculator, ParallelRaysGiveNoPoint) {
     StereoSystemConfig c;
     c.om = {0.0, 0.0, 0.0};
     c.translationMm = {-100.0, 0.0, 0.0};
-    const StereoCoordinateCalculator calc(c);
+    const StereoCoordinateCalculator calc(stereoGeometry(c));
     // Same pixel in both cameras of a pure-translation rig: the rays are parallel.
     EXPECT_FALSE(calc.triangulate({640.0, 480.0}, {640.0, 480.0}));
 }

@@ -12,9 +12,9 @@
 
 #include "../analyze/CraftedFeature.h"
 
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
-#include <avatar/analyze/StereoCoordinateCalculator.h>
+#include <avatar/common/StereoCoordinateCalculator.h>
 
 #include <benchmark/benchmark.h>
 
@@ -228,8 +228,8 @@ std::vector<FeatureMatch> naiveBox(const MatchConfig& m, const StereoSystemConfi
 /// The epipolar line with every right feature's distance computed.
 std::vector<FeatureMatch> naiveLine(const MatchConfig& m, const StereoSystemConfig& s,
                                     const std::vector<Feature>& l, const std::vector<Feature>& r) {
-    const cv::Matx33d F = fundamentalMatrix(s);
-    const StereoCoordinateCalculator tri(s);
+    const cv::Matx33d F = fundamentalMatrix(stereoGeometry(s));
+    const StereoCoordinateCalculator tri(stereoGeometry(s));
     std::vector<cv::Point2d> rightIdeal;
     for (const Feature& f : r)
         rightIdeal.push_back(normalizedToPixel(s.right, normalizePixel(s.right, f.centroid)));

@@ -45,7 +45,7 @@
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/analyze/LightingCorrection.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
-#include <avatar/analyze/StereoCoordinateCalculator.h>
+#include <avatar/common/StereoCoordinateCalculator.h>
 #include <avatar/config/ConfigXml.h>
 #include <avatar/render/Renderer.h>
 #include <avatar/render/Scene.h>
@@ -305,7 +305,7 @@ struct BaselineImage {
 class Baseline {
 public:
     explicit Baseline(const AvatarConfig& config)
-        : config_(config), calculator_(config.stereo), kernel_(cv::getStructuringElement(cv::MORPH_RECT, {3, 3})) {
+        : config_(config), calculator_(stereoGeometry(config.stereo)), kernel_(cv::getStructuringElement(cv::MORPH_RECT, {3, 3})) {
         LightingCorrector corrector(config.lighting);
         corrector.prepare({config.camera.width, config.camera.height});
         factors_ = corrector.factors().clone();

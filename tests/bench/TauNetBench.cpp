@@ -21,7 +21,7 @@
 //   bench_taunet --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 // and read the *_median rows.
 
-#include <avatar/render/AcquireSIPSimulation.h>
+#include <avatar/acquire/AcquireSIPSimulation.h>
 #include <avatar/tau/Protocol.h>
 #include <avatar/tau/TauNetServer.h>
 #include <avatar/tau/VisionInterface.h>
@@ -102,7 +102,7 @@ public:
         options.sensor.width = 640;
         options.sensor.height = 480;
         options.seed = 7;
-        render::AcquireSIPSimulation simulation(scene, halfScorpion(), options);
+        AcquireSIPSimulation simulation(scene, halfScorpion(), options);
         simulation.applyConfig(config());
         pair_ = simulation.acquire().pair;
     }

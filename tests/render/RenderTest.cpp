@@ -1,7 +1,7 @@
 #include "RenderFixtures.h"
 
-#include <avatar/analyze/CameraModel.h>
-#include <avatar/analyze/StereoCoordinateCalculator.h>
+#include <avatar/common/CameraModel.h>
+#include <avatar/common/StereoCoordinateCalculator.h>
 #include <avatar/common/ImageUtils.h>
 #include <avatar/common/StereoImagePairFileIO.h>
 
@@ -42,7 +42,7 @@ TEST(Render, ProjectedCentresTriangulateToTheTruth) {
     StereoSystemConfig config = test::scorpion();
     config.baseTVision = makeRigidTransform(rodrigues({0.1, -1.2, 0.3}), cv::Vec3d(-400, 250, 900));
     const auto result = render::render(scene, config, test::noiseFree(320, 240));
-    const StereoCoordinateCalculator calc(config);
+    const StereoCoordinateCalculator calc(stereoGeometry(config));
     for (const auto& t : result.truth.targets) {
         ASSERT_TRUE(t.left.projectedCentrePx && t.right.projectedCentrePx);
         const auto p = calc.triangulate(*t.left.projectedCentrePx, *t.right.projectedCentrePx);

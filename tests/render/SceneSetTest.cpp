@@ -1,6 +1,6 @@
 #include "RenderFixtures.h"
 
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/common/Error.h>
 #include <avatar/render/SceneSet.h>
 

@@ -5,7 +5,7 @@
 
 #include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/config/ConfigXml.h>
-#include <avatar/render/AcquireSIPSimulation.h>
+#include <avatar/acquire/AcquireSIPSimulation.h>
 #include <avatar/tau/Protocol.h>
 #include <avatar/tau/TauNetServer.h>
 #include <avatar/tau/VisionInterface.h>
@@ -96,7 +96,7 @@ std::unique_ptr<AcquireStereoImagePair> simulation() {
     options.sensor.width = 640;
     options.sensor.height = 480;
     options.seed = 7;
-    return std::make_unique<render::AcquireSIPSimulation>(scene, halfScorpion(), options);
+    return std::make_unique<AcquireSIPSimulation>(scene, halfScorpion(), options);
 }
 
 /// A VisionInterface and a TauNetServer on 127.0.0.1, ephemeral port.

@@ -3,9 +3,9 @@
 
 #include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/acquire/SessionLog.h>
-#include <avatar/analyze/CameraModel.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/config/ConfigXml.h>
-#include <avatar/render/AcquireSIPSimulation.h>
+#include <avatar/acquire/AcquireSIPSimulation.h>
 #include <avatar/tau/VisionInterface.h>
 
 #include <gtest/gtest.h>
@@ -59,7 +59,7 @@ AvatarConfig config() {
 
 const cv::Point3d kSphereMm{30, 20, 800};
 
-std::unique_ptr<render::AcquireSIPSimulation> simulation() {
+std::unique_ptr<AcquireSIPSimulation> simulation() {
     render::Scene scene;
     scene.seabed.distanceMm = 1200;
     scene.sensor.readNoiseDn = 8;
@@ -74,7 +74,7 @@ std::unique_ptr<render::AcquireSIPSimulation> simulation() {
     options.sensor.width = 640;
     options.sensor.height = 480;
     options.seed = 7;
-    return std::make_unique<render::AcquireSIPSimulation>(scene, halfScorpion(), options);
+    return std::make_unique<AcquireSIPSimulation>(scene, halfScorpion(), options);
 }
 
 template <typename Predicate>

@@ -22,19 +22,6 @@ using namespace avatar;
 
 namespace {
 
-std::string flagsText(std::uint32_t f) {
-    std::string s;
-    auto add = [&](std::uint32_t bit, const char* name) {
-        if (f & bit) s += (s.empty() ? "" : ",") + std::string(name);
-    };
-    add(kTargetStereo, "stereo");
-    add(kTargetLeftOnly, "left-only");
-    add(kTargetRightOnly, "right-only");
-    add(kTargetAtBorder, "border");
-    add(kTargetShapeCorrected, "shape-corrected");
-    return s;
-}
-
 void printTargets(const VisionTargets& r) {
     std::printf("iteration %llu (group %u member %u): %zu target(s), visibility %s%s%s\n",
                 static_cast<unsigned long long>(r.iteration), r.acquisition.group, r.acquisition.member,
@@ -42,7 +29,7 @@ void printTargets(const VisionTargets& r) {
                 r.visibility == Visibility::Good ? "good" : r.visibility == Visibility::Poor ? "POOR" : "unknown",
                 r.visibilityReason.empty() ? "" : ": ", r.visibilityReason.c_str());
     for (const VisionTarget& t : r.targets) {
-        std::printf("  %-12s %-22s", t.type.c_str(), flagsText(t.flags).c_str());
+        std::printf("  %-12s %-22s", t.type.c_str(), targetFlagsText(t.flags).c_str());
         if (t.positionVisionMm)
             std::printf(" vision %8.1f %8.1f %8.1f mm", t.positionVisionMm->x, t.positionVisionMm->y,
                         t.positionVisionMm->z);

@@ -9,6 +9,7 @@
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
+#include <avatar/common/StereoImagePairFileIO.h>
 #include <avatar/config/ConfigXml.h>
 
 #include <boost/program_options.hpp>

@@ -2,8 +2,7 @@
 // chosen acquisition backend and serves it with the TAU protocol until SIGINT
 // or SIGTERM. User guide: docs/tools/taunet.md
 
-#include "Backends.h"
-
+#include <avatar/acquire/AcquisitionBackends.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
 #include <avatar/tau/TauNetServer.h>
@@ -31,9 +30,9 @@ void printHelp(const po::options_description& options) {
                  "Serves the AVATAR vision system over TCP with the TAU protocol (docs/protocol.md)\n"
                  "until SIGINT or SIGTERM. Listens on 127.0.0.1 unless --listen says otherwise.\n\n"
               << options << "\nBackends:\n";
-    for (const auto& b : taunet::backendTable())
+    for (const auto& b : backendTable())
         std::cout << "  " << b.name << std::string(b.name.size() < 12 ? 12 - b.name.size() : 1, ' ') << b.summary
-                  << (b.available ? "" : " [not available: " + b.missing + "]") << "\n";
+                  << "\n";
     std::cout << "\nExample:\n  taunet --backend replay --session data/sessions/lab --port 0\n";
 }
 
@@ -103,7 +102,7 @@ int main(int argc, char** argv) {
         boost::asio::io_context signalIo;
         boost::asio::signal_set signals(signalIo, SIGINT, SIGTERM);
 
-        taunet::BackendRequest request;
+        BackendRequest request;
         request.name = vm["backend"].as<std::string>();
         if (vm.count("session")) request.session = vm["session"].as<std::string>();
         if (vm.count("config")) request.config = vm["config"].as<std::string>();
@@ -124,7 +123,7 @@ int main(int argc, char** argv) {
         std::string why;
         if (!serverOptions.isValid(&why)) throw InvalidArgument(why);
 
-        taunet::Backend backend = taunet::makeBackend(request);
+        Backend backend = makeBackend(request);
         log.notice("backend %s, configuration from %s", request.name.c_str(), backend.configSource.c_str());
         VisionOptions visionOptions;
         visionOptions.configDirectory = backend.configDirectory;

@@ -50,7 +50,7 @@ void targetLines(const VisionTargets& t, const char* label, std::vector<std::str
                          visibilityText(t.visibility), t.visibilityReason.empty() ? "" : ": ",
                          t.visibilityReason.c_str()));
     for (const VisionTarget& v : t.targets)
-        out.push_back(format("  %s [%s] vision %s base %s L %s R %s", v.type.c_str(), flagsText(v.flags).c_str(),
+        out.push_back(format("  %s [%s] vision %s base %s L %s R %s", v.type.c_str(), targetFlagsText(v.flags).c_str(),
                              point3(v.positionVisionMm).c_str(), point3(v.positionBaseMm).c_str(),
                              point2(v.centroidLeftPx).c_str(), point2(v.centroidRightPx).c_str()));
 }
@@ -73,19 +73,6 @@ std::vector<std::string> splitWords(const std::string& line) {
 std::string stateText(std::uint8_t state) {
     static const char* const names[] = {"Idle", "Searching", "Snapshot", "Error"};
     return std::to_string(state) + ":" + (state < 4 ? names[state] : "Unknown");
-}
-
-std::string flagsText(std::uint32_t f) {
-    std::string s;
-    auto add = [&](std::uint32_t bit, const char* name) {
-        if (f & bit) s += (s.empty() ? "" : ",") + std::string(name);
-    };
-    add(kTargetStereo, "stereo");
-    add(kTargetLeftOnly, "left-only");
-    add(kTargetRightOnly, "right-only");
-    add(kTargetAtBorder, "border");
-    add(kTargetShapeCorrected, "shape-corrected");
-    return s.empty() ? "-" : s;
 }
 
 const char* kindName(tau::ImageKindCode kind) {

@@ -67,8 +67,6 @@ private:
 
 /// "1:Searching" etc.
 std::string stateText(std::uint8_t state);
-/// "stereo,border" etc.
-std::string flagsText(std::uint32_t flags);
 /// "original", "filtered", "marked"; parseKind returns nullopt for other text.
 const char* kindName(tau::ImageKindCode kind);
 std::optional<tau::ImageKindCode> parseKind(const std::string& text);

@@ -192,11 +192,9 @@ private:
     /// One acquisition and analysis. Vision thread only.
     VisionTargets iterate() {
         AcquiredPair acquired = backend_->acquire();
-        if (acquired.recordedConfigXml) {
-            // A replay reached a recorded configuration change: apply it as it was applied then.
-            const AvatarConfig recorded = readConfigString(*acquired.recordedConfigXml, "recorded configuration");
-            if (recorded != config()) install(recorded);
-        }
+        // A replay reached a recorded configuration change: apply it as it was applied then.
+        if (const std::optional<AvatarConfig> recorded = acquired.recordedConfig(); recorded && *recorded != config())
+            install(*recorded);
         std::uint64_t iteration;
         {
             std::lock_guard<std::mutex> lock(mutex_);

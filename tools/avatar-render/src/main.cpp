@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+extern const char* const kScorpionSampleXml;  // ScorpionSample.cpp, generated
+
 namespace {
 
 using namespace avatar;
@@ -31,7 +33,8 @@ const char* const kUsage = R"(usage:
 
 camera (one is required):
   --config FILE       AVATAR configuration: calibration, registration, image format
-  --scorpion          built-in Scorpion calibration of thesis Table 6-4, 1280x960 16-bit BG
+  --scorpion          the calibration of data/config/scorpion.xml (thesis Table 6-4, built in),
+                      1280x960 16-bit BG
 image format overrides:
   --width N --height N --bits N --pattern BG|GB|RG|GR --bgr --big-endian
 rendering:
@@ -71,15 +74,12 @@ double toReal(const std::string& option, const std::string& text) {
     return v;
 }
 
+/// The calibration of data/config/scorpion.xml (thesis Table 6-4), built in;
+/// without its example registration, as a bare stereo pair.
 StereoSystemConfig scorpionCalibration() {
-    StereoSystemConfig c;
-    c.left.fc = {1049.13, 1050.38};
-    c.left.cc = {712.28, 564.45};
-    c.right.fc = {1047.20, 1048.66};
-    c.right.cc = {702.74, 561.13};
-    c.om = {0.002, 0.003, 0.047};
-    c.translationMm = {-106.53, -2.58, 0.82};
-    return c;
+    StereoSystemConfig stereo = readConfigString(kScorpionSampleXml, "built-in data/config/scorpion.xml").stereo;
+    stereo.baseTVision.reset();
+    return stereo;
 }
 
 struct Arguments {

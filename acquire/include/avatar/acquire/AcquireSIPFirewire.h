@@ -16,28 +16,86 @@
 /// valid only until the next acquire(), applyConfig() or the destruction of
 /// this object; clone() it to keep it. 3-channel frames (RGB from the camera)
 /// are always converted to BGR copies, as are pairs whose two row strides differ.
+///
+/// The bus is reached through a small seam (FirewireBus, AvatarCameras: the
+/// internal headers of acquire/firewire/), so the tests drive the whole
+/// backend through a scripted bus.
 
 #include <avatar/acquire/AcquireStereoImagePair.h>
-#include <avatar/acquire/AvatarCameras.h>
-#include <avatar/acquire/FirewireBus.h>
 
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 
 namespace avatar {
 
+class AvatarCameras;
+class FirewireBus;
+
+/// Tuning of the FireWire backend. Defaults suit two Point Grey Scorpion
+/// cameras at up to 19 frames/s on one bus.
+struct FirewireOptions {
+    /// Pause after a failed enumeration or a bus reset for the bus to settle.
+    std::chrono::milliseconds settleDelay{500};
+    /// Plain re-enumerations (after a settle delay) before the first bus reset:
+    /// enough for a bus that is still settling after a hot-plug.
+    int settleRetries{2};
+    /// Bus resets (each followed by a settle delay and an enumeration) before
+    /// reporting that the cameras are not there.
+    int maxBusResets{3};
+    /// How long to wait for each camera's frame before calling it lost.
+    std::chrono::milliseconds dequeueTimeout{1000};
+    /// Largest difference of the two capture timestamps in one pair: about half
+    /// a frame period (19 frames/s: 52.6 ms period).
+    std::chrono::microseconds timestampTolerance{25000};
+    /// Frames dropped while trying to bring the two cameras into step before a
+    /// grab gives up (with an AcquisitionError, never a mismatched pair).
+    int maxResyncDrops{8};
+    /// DMA ring buffers per camera (libdc1394 needs at least 1).
+    std::uint32_t dmaBuffers{4};
+    /// Consecutive failed recovery attempts after a lost camera before the
+    /// status turns Failed.
+    int maxRecoveryAttempts{3};
+    /// AcquireSIPFirewire only: hand out pairs that are views over the DMA
+    /// buffers instead of copies (see AcquireSIPFirewire.h for the lifetime).
+    bool zeroCopyViews{false};
+
+    /// Empty when every option is usable; otherwise one "name: problem" per
+    /// bad option, separated by "; ".
+    std::string validate() const;
+};
+
+/// What AvatarCameras::configure() had to do.
+enum class CameraChange {
+    None,      ///< nothing the cameras care about changed
+    Features,  ///< feature set written, capture kept running
+    Capture,   ///< capture stopped, Format7 (ROI/coding) set, capture restarted
+    Cameras,   ///< cameras (re)opened: first start, or other GUIDs
+};
+/// "none", "features", "capture", "cameras".
+std::string_view toString(CameraChange change);
+
+/// Waits for the bus to settle; the default sleeps the calling thread.
+using FirewireSleepFunction = std::function<void(std::chrono::milliseconds)>;
+
 class AcquireSIPFirewire : public AcquireStereoImagePair {
 public:
-    /// Takes over @p bus; touches no hardware until applyConfig(), which finds
-    /// and starts the cameras. Throws InvalidArgument for bad options or group size.
+    /// Takes over @p bus (internal/FirewireBus.h; makeFirewireAcquisition()
+    /// gives the real one); touches no hardware until applyConfig(), which
+    /// finds and starts the cameras. Throws InvalidArgument for bad options or
+    /// group size.
     explicit AcquireSIPFirewire(std::unique_ptr<FirewireBus> bus, FirewireOptions options = {},
-                                std::uint32_t groupSize = 99999, AvatarCameras::SleepFunction sleep = {});
+                                std::uint32_t groupSize = 99999, FirewireSleepFunction sleep = {});
+    ~AcquireSIPFirewire() override;
 
     std::string name() const override { return "firewire"; }
     /// Thread-safe; see AvatarCameras::status().
-    AcquisitionStatus status() const override { return cameras_.status(); }
-    const AvatarCameras& cameras() const { return cameras_; }
+    AcquisitionStatus status() const override;
+    /// The cameras (enumeration, recovery counters); see acquire/firewire/AvatarCameras.h.
+    const AvatarCameras& cameras() const { return *cameras_; }
     /// What the last successful applyConfig() changed on the cameras.
     CameraChange lastChange() const { return lastChange_; }
 
@@ -51,7 +109,7 @@ protected:
     void configure(const AvatarConfig& config) override;
 
 private:
-    AvatarCameras cameras_;
+    std::unique_ptr<AvatarCameras> cameras_;
     bool zeroCopy_;
     CameraChange lastChange_{CameraChange::None};
 };

@@ -52,8 +52,16 @@ struct AcquiredPair {
     /// Replay only: the configuration XML the recording applied at this pair
     /// (set where the recorded configuration changed, and on the first pair).
     std::optional<std::string> recordedConfigXml;
+    /// Replay only: where recordedConfigXml comes from, as errors name it:
+    /// "<session>/session.log (configuration 2)".
+    std::string recordedConfigSource;
     /// Replay only: the analysis result the recording stored for this pair.
     std::optional<VisionTargets> recordedResult;
+
+    /// recordedConfigXml read and validated: std::nullopt when the pair carries
+    /// no configuration; ConfigError naming recordedConfigSource when it does
+    /// not validate (with this build's rules).
+    std::optional<AvatarConfig> recordedConfig() const;
 };
 
 class AcquireStereoImagePair {

@@ -42,6 +42,13 @@
 
 namespace avatar {
 
+/// A configuration a session was recorded with.
+struct RecordedConfig {
+    AvatarConfig config;
+    std::uint32_t version{0};  ///< its version in the recording
+    std::string source;        ///< "<session>/session.log (configuration N)"
+};
+
 class RawDataAcquire final : public AcquireStereoImagePair {
 public:
     /// Reads `<sessionDirectory>/session.log`. Throws avatar::IoError or
@@ -55,6 +62,12 @@ public:
     AcquisitionStatus status() const override;
 
     const SessionLogReader& reader() const { return reader_; }
+    /// The configuration the session starts with: that of its first intact
+    /// record, validated. Throws avatar::NotAvailable when the session has no
+    /// intact record or does not hold that record's configuration (the record
+    /// that applied it is damaged), and ConfigError naming the log and the
+    /// version when it does not validate.
+    RecordedConfig initialConfig() const;
     /// The record of the pair acquire() returned last (its configuration
     /// version, file names and checksums); empty before the first pair.
     const std::optional<SessionRecord>& lastRecord() const { return lastRecord_; }
@@ -74,6 +87,8 @@ protected:
 
 private:
     AcquiredPair next();
+    std::string configSource(std::uint32_t version) const;
+    std::size_t firstIntactLine() const;
     void updateEndState();
 
     SessionLogReader reader_;

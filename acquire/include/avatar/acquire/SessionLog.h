@@ -11,7 +11,6 @@
 /// thrown but reported per line in SessionLogEntry, so a caller can report
 /// each damaged record and go on with the rest.
 
-#include <avatar/acquire/RawImageFile.h>
 #include <avatar/common/ImageFormat.h>
 #include <avatar/common/StereoImagePair.h>
 #include <avatar/common/VisionTargets.h>
@@ -31,6 +30,22 @@ inline constexpr const char* kSessionLogFileName = "session.log";
 inline constexpr const char* kSessionLogFormatName = "AVATAR-SESSION-LOG";
 /// The format version this code writes and the only one it reads.
 inline constexpr int kSessionLogVersion = 1;
+
+/// How an image file stores its samples.
+enum class Compression {
+    None,  ///< `.raw`: headerless samples in the byte order of the name
+    Png    ///< `.png`: lossless PNG, 8- or 16-bit, samples unscaled
+};
+
+/// A recorded image file: its name (no directory) and the CRC-32 of its bytes
+/// (boost::crc_32_type, see docs/formats.md).
+struct ImageFileRef {
+    std::string name;
+    std::uint32_t crc32{0};
+
+    bool operator==(const ImageFileRef& o) const { return name == o.name && crc32 == o.crc32; }
+    bool operator!=(const ImageFileRef& o) const { return !(*this == o); }
+};
 
 /// The files of one acquired pair.
 struct PairFiles {

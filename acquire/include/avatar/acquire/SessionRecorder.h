@@ -14,7 +14,6 @@
 /// a new configuration does not lose that configuration: the next recorded
 /// pair of the same version carries its XML instead.
 
-#include <avatar/acquire/RawImageFile.h>
 #include <avatar/acquire/SessionLog.h>
 #include <avatar/common/StereoImagePair.h>
 #include <avatar/common/VisionTargets.h>

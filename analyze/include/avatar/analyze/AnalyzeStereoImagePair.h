@@ -20,9 +20,11 @@ namespace avatar {
 
 class AnalyzeStereoImagePair {
 public:
-    /// Builds the chain named by config.analysis.stages from @p registry.
-    /// Throws avatar::InvalidArgument for an unknown stage, a repeated stage, or
-    /// an order that cannot work (e.g. match before locate_features), naming it.
+    /// Validates @p config (ConfigError naming the element, as validateConfig())
+    /// and builds the chain named by config.analysis.stages from @p registry.
+    /// Throws avatar::InvalidArgument for an unknown stage or an order that
+    /// breaks a stage's needs() (e.g. match before locate_features), naming it;
+    /// the stages' own errors (a lighting template that cannot be read) as they are.
     explicit AnalyzeStereoImagePair(const AvatarConfig& config,
                                     const std::filesystem::path& configDir = {},
                                     const StageRegistry& registry = StageRegistry::builtin());

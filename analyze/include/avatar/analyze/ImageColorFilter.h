@@ -51,8 +51,9 @@ namespace avatar {
 /// overwritten).
 ///
 /// Throws avatar::FormatError for an image that is not CV_8UC3 / CV_16UC3,
-/// avatar::InvalidArgument for a bit depth outside 1..8 / 1..16 and for a type
-/// with a NaN limit or a range with min > max (hue excepted), naming the type.
+/// avatar::InvalidArgument for a bit depth outside 1..8 / 1..16, and
+/// ConfigError (an InvalidArgument) for a type that validateTargetType()
+/// rejects (a NaN limit, a range with min > max, hue excepted), naming the type.
 ///
 /// @param bgr      8- or 16-bit, 3 channels
 /// @param bitDepth significant bits of the samples (full scale = 2^bitDepth - 1)

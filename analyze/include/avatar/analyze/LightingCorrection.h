@@ -34,9 +34,10 @@ public:
     /// (cv::IMWRITE_TIFF_COMPRESSION = 1; OpenCV's default for float RGB
     /// TIFF is the lossy LogLuv encoding) or a PFM file. Throws avatar::IoError naming a template
     /// image that is missing or cannot be decoded, avatar::FormatError naming
-    /// one with the wrong channel count, depth or values, and
-    /// avatar::InvalidArgument naming a gain or falloff coefficient that is not
-    /// finite and >= 0 or an exponent that is not finite.
+    /// one with the wrong channel count, depth or values, and ConfigError (an
+    /// avatar::InvalidArgument) for a configuration that validateLightingConfig()
+    /// rejects (a gain or coefficient not finite and > 0, an exponent or the
+    /// pattern centre not finite), naming the element.
     explicit LightingCorrector(const LightingConfig& config, const std::filesystem::path& configDir = {});
 
     /// True when the configuration asks for any correction.

@@ -11,6 +11,7 @@
 
 #include <avatar/analyze/Feature.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
+#include <avatar/analyze/Visibility.h>
 #include <avatar/common/StereoImagePair.h>
 #include <avatar/common/VisionTargets.h>
 #include <avatar/config/AvatarConfig.h>
@@ -32,9 +33,7 @@ struct ImageWork {
     cv::Mat image;                                  ///< the working image (BGR after demosaic)
     std::vector<cv::Mat> masks;                     ///< per target type, CV_8UC1 0/255
     std::vector<std::vector<Feature>> features;     ///< per target type
-    double contrast{0.0};                           ///< visibility measures, see VisibilityConfig
-    double saturatedFraction{0.0};
-    double haze{0.0};
+    VisibilityMeasures visibility;                  ///< set by the visibility stage
 };
 
 /// Everything the stages of one iteration read and write.
@@ -58,6 +57,10 @@ public:
     virtual ~ProcessStereoImagePair() = default;
     /// The name the configuration uses for this stage.
     virtual std::string_view name() const = 0;
+    /// The stages that must come before this one in the chain, because it
+    /// reads what they produce (e.g. match needs locate_features). The
+    /// orchestrator refuses a chain that breaks this.
+    virtual std::vector<std::string_view> needs() const { return {}; }
     virtual bool hasImageWork() const { return false; }
     virtual void prepare(AnalysisFrame& /*frame*/) {}
     virtual void processImage(AnalysisFrame& /*frame*/, Side /*side*/) {}

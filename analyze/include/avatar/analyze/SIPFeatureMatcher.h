@@ -5,6 +5,7 @@
 /// general epipolar-line method for cameras that are not parallel (Appendix A).
 
 #include <avatar/analyze/Feature.h>
+#include <avatar/common/StereoCoordinateCalculator.h>
 #include <avatar/config/MatchConfig.h>
 #include <avatar/config/StereoSystemConfig.h>
 
@@ -38,13 +39,6 @@ struct FeatureMatch {
 /// Symmetric: shapeError(a, b) == shapeError(b, a).
 double shapeError(const Feature& a, const Feature& b, const ShapeMatchConfig& weights);
 
-/// Fundamental matrix F of Appendix A: l_right = F p_left for homogeneous pixels.
-/// F = K_r^-T [T]x R K_l^-1 with right_T_left = (R, T) and K = [fc1, fc1 alphaC,
-/// cc1; 0, fc2, cc2; 0, 0, 1] (the thesis prints K_r^T, a typo), so that
-/// p_r^T F p_l = 0. It holds for undistorted pixels K x_n; with lens distortion
-/// undistort first (normalizePixel(), then normalizedToPixel()).
-cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
-
 /// Pairs the features of the left and right images by MatchConfig::method.
 ///
 /// Every method admits a pair only when the larger area is at most
@@ -63,8 +57,9 @@ cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
 ///   between the right-image projections of the left ray's points at depths
 ///   minRangeMm and maxRangeMm (shortened where the ray passes behind the
 ///   right camera), and (3) the pair triangulates to a left-camera depth z in
-///   [minRangeMm, maxRangeMm] (the midpoint triangulation of
-///   StereoCoordinateCalculator, Figure 3-18). Rule (2) keeps out pairs whose
+///   [minRangeMm, maxRangeMm] (StereoCoordinateCalculator's midpoint
+///   triangulation, Figure 3-18). The fundamental matrix F is that of
+///   avatar/common/CameraModel.h (Appendix A). Rule (2) keeps out pairs whose
 ///   rays are nearly parallel (disparity near zero: a point near infinity),
 ///   whose midpoint can land at any depth.
 /// Box and line look up candidates in a grid of the right centroids, so their
@@ -88,9 +83,9 @@ cv::Matx33d fundamentalMatrix(const StereoSystemConfig& stereo);
 /// Immutable after construction; match() is safe to call from several threads.
 class SIPFeatureMatcher {
 public:
-    /// Throws avatar::InvalidArgument naming the field when the configuration
-    /// cannot be used (empty box, negative distance or weights, depth range not
-    /// 0 < min < max, maxAreaRatio < 1, focal length not positive).
+    /// Checks both parts with the configuration's own rules
+    /// (validateMatchConfig(), validateStereoConfig()) and throws their
+    /// ConfigError, naming the element, for one that cannot be used.
     SIPFeatureMatcher(const MatchConfig& match, const StereoSystemConfig& stereo);
 
     /// Pairs left and right features; each feature is used at most once. A
@@ -104,7 +99,7 @@ public:
 
 private:
     MatchConfig match_;
-    StereoSystemConfig stereo_;
+    StereoCoordinateCalculator calculator_;
     cv::Matx33d fundamental_;
 };
 

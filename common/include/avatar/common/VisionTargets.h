@@ -24,6 +24,10 @@ enum TargetFlag : std::uint32_t {
     kTargetShapeCorrected = 1u << 4 ///< position corrected for the silhouette bias of a known shape
 };
 
+/// The names of the set flags, comma-separated in bit order
+/// ("stereo,border"); "-" when none is set.
+std::string targetFlagsText(std::uint32_t flags);
+
 /// One target found in an image pair.
 struct VisionTarget {
     std::string type;            ///< the TargetType name, e.g. "sample"

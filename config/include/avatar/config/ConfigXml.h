@@ -4,6 +4,13 @@
 ///
 /// A document is accepted whole or rejected whole: the functions either return
 /// a complete, validated AvatarConfig or throw ConfigError; nothing half-applies.
+///
+/// The validator is the one source of truth for every rule of a configuration
+/// value. The algorithms that take part of a configuration (the matcher, the
+/// lighting corrector, the colour filter, the analysis) call the same checks
+/// (validateMatchConfig() and the others below), so a configuration that
+/// validates always builds, and one that does not is rejected with the same
+/// message whichever way it arrives.
 
 #include <avatar/common/Error.h>
 #include <avatar/config/AvatarConfig.h>
@@ -13,24 +20,15 @@
 
 namespace avatar {
 
-/// A configuration that cannot be accepted. what() reads
+/// A configuration that cannot be accepted (a DocumentError, and an
+/// InvalidArgument: the configuration given cannot be used). what() reads
 ///   "<source>:<line>: <element path>: <problem>"
 /// e.g. "scorpion.xml:42: /avatar/targets/target[2]/redGreen/min: expected a number, got 'abc'".
-class ConfigError : public Error {
+/// The source is the file path as given to readConfigFile, the name given to
+/// readConfigString (default "<string>"), or "<memory>" for a value checked in code.
+class ConfigError : public DocumentError<InvalidArgument> {
 public:
-    ConfigError(std::string source, int line, std::string elementPath, std::string problem);
-    /// The file path as given to readConfigFile, the name given to
-    /// readConfigString (default "<string>"), or "<memory>" for validateConfig.
-    const std::string& source() const { return source_; }
-    int line() const { return line_; }                          ///< 1-based, 0 if unknown
-    const std::string& elementPath() const { return path_; }    ///< e.g. "/avatar/match/method"
-    const std::string& problem() const { return problem_; }
-
-private:
-    std::string source_;
-    int line_;
-    std::string path_;
-    std::string problem_;
+    using DocumentError::DocumentError;
 };
 
 /// Parses and validates a document held in memory; @p sourceName appears in errors.
@@ -49,6 +47,22 @@ void writeConfigFile(const AvatarConfig& config, const std::filesystem::path& pa
 /// (source "<memory>", line 0) naming the first bad field by the element path
 /// it would have in a document.
 void validateConfig(const AvatarConfig& config);
+
+/// The rules of one part, for an algorithm that is given only that part. Each
+/// throws ConfigError (source "<memory>", line 0) naming the first bad field
+/// by its element path, exactly as validateConfig() would.
+/// Matching: box and depth ranges not empty, weights, limits.
+void validateMatchConfig(const MatchConfig& match);
+/// Calibration and registration, except what needs the image size (the
+/// principal points inside the image, checked by validateConfig()).
+void validateStereoConfig(const StereoSystemConfig& stereo);
+/// Gains, falloff and the template path.
+void validateLightingConfig(const LightingConfig& lighting);
+/// One target type, except its search window (which needs the image size);
+/// errors name it as /avatar/targets/target[@name='<name>'].
+void validateTargetType(const TargetType& type);
+/// The form of the stage list (names, no repeats) and the analysis options.
+void validateAnalysisConfig(const AnalysisConfig& analysis);
 
 /// Resolves a path stored in a configuration (e.g. LightingConfig::templateImagePath)
 /// against the directory of @p configFile, the file it was read from. Absolute

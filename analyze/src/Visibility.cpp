@@ -1,0 +1,52 @@
+#include <avatar/analyze/Visibility.h>
+
+#include "ImageReduce.h"
+
+#include <opencv2/core.hpp>
+
+#include <cstdio>
+
+namespace avatar {
+
+VisibilityMeasures measureVisibility(const cv::Mat& bgr, int bitDepth) {
+    const double full = static_cast<double>((1 << bitDepth) - 1);
+    cv::Mat small, channels[3], luma, minChannel;
+    detail::downsampleArea4(bgr, small);  // = cv::resize INTER_AREA, bit for bit, serial
+    small.convertTo(small, CV_32F, 1.0 / full);
+    cv::split(small, channels);
+    luma = 0.114f * channels[0] + 0.587f * channels[1] + 0.299f * channels[2];
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(luma, mean, stddev);
+    VisibilityMeasures m;
+    m.contrast = stddev[0];
+    minChannel = cv::min(cv::min(channels[0], channels[1]), channels[2]);
+    m.haze = cv::mean(minChannel)[0];
+    m.saturatedFraction =
+        static_cast<double>(detail::countSamplesAtLeast(bgr, full)) / static_cast<double>(bgr.total());
+    return m;
+}
+
+VisibilityVerdict judgeVisibility(const VisibilityMeasures& left, const VisibilityMeasures& right,
+                                  const VisibilityConfig& limits) {
+    std::string reason;
+    const auto add = [&](const char* text) { reason += (reason.empty() ? "" : "; ") + std::string(text); };
+    for (const auto& [name, m] : {std::pair<const char*, const VisibilityMeasures&>{"left", left}, {"right", right}}) {
+        char buf[128];
+        if (m.contrast < limits.minContrast) {
+            std::snprintf(buf, sizeof buf, "%s: contrast %.4f below %.4f", name, m.contrast, limits.minContrast);
+            add(buf);
+        }
+        if (m.saturatedFraction > limits.maxSaturatedFraction) {
+            std::snprintf(buf, sizeof buf, "%s: %.1f%% saturated, above %.1f%%", name, 100.0 * m.saturatedFraction,
+                          100.0 * limits.maxSaturatedFraction);
+            add(buf);
+        }
+        if (m.haze > limits.maxHaze) {
+            std::snprintf(buf, sizeof buf, "%s: haze %.3f above %.3f", name, m.haze, limits.maxHaze);
+            add(buf);
+        }
+    }
+    return {reason.empty() ? Visibility::Good : Visibility::Poor, reason};
+}
+
+}  // namespace avatar

@@ -1,0 +1,25 @@
+#pragma once
+/// @file Text.h
+/// Internal to the AVATAR libraries (not installed): the small text helpers
+/// that the file names, the session log, the configuration and the scene
+/// files all use, written once.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace avatar::text {
+
+/// The fields of @p text between the separators: "a,,b" -> {"a", "", "b"};
+/// "" -> {""}. The views point into @p text.
+std::vector<std::string_view> split(std::string_view text, char separator);
+
+/// The shortest text that reads back to exactly @p value (std::to_chars):
+/// "0.1", "1e+300", "-0", "inf", "nan".
+std::string formatDouble(double value);
+
+/// 8 lowercase hexadecimal digits: "04c11db7".
+std::string hex8(std::uint32_t value);
+
+}  // namespace avatar::text
