@@ -8,31 +8,13 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <chrono>
-#include <stdexcept>
-#include <typeinfo>
 
 namespace avatar::tau::detail {
 
 namespace {
 
-/// A request that is answered with a specific ERROR code.
-class Refused : public std::runtime_error {
-public:
-    Refused(ErrorCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
-    ErrorCode code() const { return code_; }
-
-private:
-    ErrorCode code_;
-};
-
 std::vector<std::uint8_t> replyFrame(MessageType type, std::uint32_t request, const std::vector<std::uint8_t>& payload) {
     return encodeFrame(replyType(type), request, payload);
-}
-
-/// True when @p e is the plain avatar::Error VisionInterface throws when its
-/// own timeout ran out (and not one of the specific errors derived from it).
-bool timedOut(const Error& e, std::chrono::steady_clock::time_point start, std::chrono::milliseconds timeout) {
-    return typeid(e) == typeid(Error) && std::chrono::steady_clock::now() - start >= timeout;
 }
 
 }  // namespace
@@ -65,6 +47,9 @@ std::uint8_t visibilityCode(Visibility visibility) {
     }
     return 0;
 }
+
+/// How long a SEND_CONFIG may wait for the vision thread to apply it (docs/protocol.md).
+constexpr std::chrono::milliseconds kConfigTimeout{std::chrono::seconds(10)};
 
 ImageKind imageKind(ImageKindCode code) {
     switch (code) {
@@ -102,7 +87,6 @@ ImagesReply encodeImages(const VisionImages& images, const GetImages& request) {
     reply.iteration = images.iteration;
     reply.kind = request.kind;
     const PairLayout& layout = images.pair.layout();
-    std::size_t total = 0;
     for (const Side side : {Side::Left, Side::Right}) {
         const std::uint8_t bit = side == Side::Left ? kLeftImage : kRightImage;
         if (!(request.sides & bit)) continue;
@@ -120,12 +104,11 @@ ImagesReply encodeImages(const VisionImages& images, const GetImages& request) {
             throw Error(std::string("JPEG encoding failed: ") + e.what());
         }
         if (!ok) throw Error("JPEG encoding failed");
-        total += encoded.jpeg.size() + 13;
         reply.images.push_back(std::move(encoded));
     }
-    if (total + 10 > kMaxReplyPayload)
-        throw Error("images of iteration " + std::to_string(images.iteration) + " need " + std::to_string(total) +
-                    " bytes, above the reply limit");
+    if (const std::size_t size = encodedSize(reply); size > kMaxReplyPayload)
+        throw Error("images of iteration " + std::to_string(images.iteration) + " need " + std::to_string(size) +
+                    " bytes, above the reply limit of " + std::to_string(kMaxReplyPayload));
     return reply;
 }
 
@@ -136,8 +119,33 @@ std::string messageOf(const ProtocolError& e) {
     return m;
 }
 
-std::vector<std::uint8_t> errorFrame(std::uint32_t request, ErrorCode code, const std::string& message) {
-    return encodeFrame(static_cast<std::uint16_t>(MessageType::Error), request, encode(ErrorReply{code, message}));
+ErrorReply errorReplyFor(const std::exception_ptr& error, std::uint16_t request) {
+    try {
+        std::rethrow_exception(error);
+    } catch (const ProtocolError& e) {
+        return {e.code(), messageOf(e)};
+    } catch (const ConfigError& e) {
+        return {ErrorCode::ConfigRejected, e.what()};
+    } catch (const AcquisitionError& e) {
+        return {ErrorCode::AcquisitionFailed, e.what()};
+    } catch (const TimedOut& e) {
+        return {ErrorCode::Timeout, e.what()};
+    } catch (const NotAvailable& e) {
+        return {ErrorCode::NotAvailable, e.what()};
+    } catch (const InvalidState& e) {
+        return {ErrorCode::InvalidState, e.what()};
+    } catch (const std::exception& e) {
+        return {ErrorCode::Internal, messageName(request) + " failed: " + e.what()};
+    } catch (...) {
+        return {ErrorCode::Internal, messageName(request) + " failed: an exception that is not a std::exception"};
+    }
+}
+
+Answer errorAnswer(std::uint32_t request, ErrorReply error) {
+    Answer a;
+    a.frame = encodeFrame(static_cast<std::uint16_t>(MessageType::Error), request, encode(error));
+    a.error = std::move(error);
+    return a;
 }
 
 RequestHandler::RequestHandler(VisionInterface& vision, std::string serverName)
@@ -161,28 +169,11 @@ std::vector<std::uint8_t> RequestHandler::helloReply(std::uint32_t request) cons
     return replyFrame(MessageType::Hello, request, encode(HelloReply{kProtocolVersion, serverName_, backend_}));
 }
 
-std::vector<std::uint8_t> RequestHandler::handle(const Frame& request) const {
-    const std::uint32_t id = request.header.request;
-    const auto type = static_cast<MessageType>(request.header.type);
+Answer RequestHandler::handle(const Frame& request) const {
     try {
-        return answer(request);
-    } catch (const Refused& e) {
-        return errorFrame(id, e.code(), e.what());
-    } catch (const ProtocolError& e) {
-        return errorFrame(id, e.code(), messageOf(e));
-    } catch (const ConfigError& e) {
-        return errorFrame(id, ErrorCode::ConfigRejected, e.what());
-    } catch (const AcquisitionError& e) {
-        return errorFrame(id, ErrorCode::AcquisitionFailed, e.what());
-    } catch (const InvalidArgument& e) {
-        // startSearching: the backend failed or finished. applyConfig: the
-        // document is valid XML but cannot be applied (e.g. an analysis that
-        // cannot be built); the old configuration stays in force.
-        if (type == MessageType::StartSearching) return errorFrame(id, ErrorCode::InvalidState, e.what());
-        if (type == MessageType::SendConfig) return errorFrame(id, ErrorCode::ConfigRejected, e.what());
-        return errorFrame(id, ErrorCode::Internal, e.what());
-    } catch (const std::exception& e) {
-        return errorFrame(id, ErrorCode::Internal, messageName(request.header.type) + " failed: " + e.what());
+        return {answer(request), std::nullopt};
+    } catch (...) {
+        return errorAnswer(request.header.request, errorReplyFor(std::current_exception(), request.header.type));
     }
 }
 
@@ -201,37 +192,21 @@ std::vector<std::uint8_t> RequestHandler::answer(const Frame& request) const {
             return replyFrame(type, id, {});
         case MessageType::TakeSnapshot: {
             const TakeSnapshot m = decodeTakeSnapshot(payload);
-            const std::chrono::milliseconds timeout(m.timeoutMs);
-            const auto start = std::chrono::steady_clock::now();
-            try {
-                return replyFrame(type, id, encode(vision_.snapshot(timeout)));
-            } catch (const Error& e) {
-                if (timedOut(e, start, timeout)) throw Refused(ErrorCode::Timeout, e.what());
-                throw;
-            }
+            return replyFrame(type, id, encode(vision_.snapshot(std::chrono::milliseconds(m.timeoutMs))));
         }
         case MessageType::GetTargetData: {
             decodeEmpty(type, payload);
             const auto targets = vision_.latestTargets();
-            if (!targets) throw Refused(ErrorCode::NotAvailable, "no target data yet: no iteration has been analysed");
+            if (!targets) throw NotAvailable("no target data yet: no iteration has been analysed");
             return replyFrame(type, id, encode(*targets));
         }
         case MessageType::SendConfig: {
             const SendConfig m = decodeSendConfig(payload);
-            const std::chrono::milliseconds timeout(std::chrono::seconds(10));
-            const auto start = std::chrono::steady_clock::now();
-            try {
-                const std::uint32_t version = vision_.applyConfig(m.xml, timeout);
-                // The iteration the new configuration applies from.
-                const VisionStatus s = vision_.status();
-                const std::uint64_t from = s.configVersion == version ? s.configIteration : s.iteration + 1;
-                return replyFrame(type, id, encode(ConfigApplied{version, from}));
-            } catch (const ConfigError&) {
-                throw;
-            } catch (const Error& e) {
-                if (timedOut(e, start, timeout)) throw Refused(ErrorCode::Timeout, e.what());
-                throw;
-            }
+            const std::uint32_t version = vision_.applyConfig(m.xml, kConfigTimeout);
+            // The iteration the new configuration applies from.
+            const VisionStatus s = vision_.status();
+            const std::uint64_t from = s.configVersion == version ? s.configIteration : s.iteration + 1;
+            return replyFrame(type, id, encode(ConfigApplied{version, from}));
         }
         case MessageType::GetConfig: {
             decodeEmpty(type, payload);
@@ -250,7 +225,7 @@ std::vector<std::uint8_t> RequestHandler::answer(const Frame& request) const {
             const GetImages m = decodeGetImages(payload);
             const VisionImages images = vision_.images(imageKind(m.kind));
             if (images.iteration == 0 || images.pair.empty())
-                throw Refused(ErrorCode::NotAvailable, "no images yet: no iteration has been analysed");
+                throw NotAvailable("no images yet: no iteration has been analysed");
             return replyFrame(type, id, encode(encodeImages(images, m)));
         }
         case MessageType::Status:
@@ -259,7 +234,7 @@ std::vector<std::uint8_t> RequestHandler::answer(const Frame& request) const {
         case MessageType::Hello:
         case MessageType::Error: break;
     }
-    throw Refused(ErrorCode::UnknownMessage, "unknown message type " + messageName(request.header.type));
+    throw ProtocolError(ErrorCode::UnknownMessage, "unknown message type " + messageName(request.header.type));
 }
 
 }  // namespace avatar::tau::detail

@@ -9,6 +9,8 @@
 #include <avatar/tau/VisionInterface.h>
 
 #include <cstdint>
+#include <exception>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,15 +28,35 @@ ImageKind imageKind(ImageKindCode code);
 StatusReply statusReply(const VisionStatus& status, const std::string& backend);
 
 /// The requested sides of @p images as JPEG (Bayer demosaiced, 16-bit scaled
-/// to 8 from the layout's bit depth). Throws avatar::Error when encoding fails.
+/// to 8 from the layout's bit depth). Throws avatar::Error when encoding fails
+/// or the reply would exceed kMaxReplyPayload.
 ImagesReply encodeImages(const VisionImages& images, const GetImages& request);
+
+/// The ERROR payload for a failure: the one table from the kind of failure
+/// (the exception's type, never its text) to the protocol's error code
+/// (docs/protocol.md, "Errors"):
+///   ProtocolError          its own code (BAD_PAYLOAD, UNKNOWN_MESSAGE, ...)
+///   ConfigError            CONFIG_REJECTED
+///   AcquisitionError       ACQUISITION_FAILED
+///   avatar::TimedOut       TIMEOUT
+///   avatar::NotAvailable   NOT_AVAILABLE
+///   avatar::InvalidState   INVALID_STATE
+///   anything else          INTERNAL ("<REQUEST> failed: <what>")
+/// @p error is the exception being handled; @p request names the request.
+ErrorReply errorReplyFor(const std::exception_ptr& error, std::uint16_t request);
+
+/// A reply frame and, when it is an ERROR, what it says (for the log).
+struct Answer {
+    std::vector<std::uint8_t> frame;
+    std::optional<ErrorReply> error;
+};
+
+/// An ERROR answer.
+Answer errorAnswer(std::uint32_t request, ErrorReply error);
 
 /// The message of a ProtocolError without the "CODE: " prefix of its what():
 /// the ERROR frame carries the code already.
 std::string messageOf(const ProtocolError& e);
-
-/// An ERROR frame.
-std::vector<std::uint8_t> errorFrame(std::uint32_t request, ErrorCode code, const std::string& message);
 
 class RequestHandler {
 public:
@@ -45,10 +67,10 @@ public:
     /// True for the types this version answers (HELLO included).
     static bool known(std::uint16_t type);
 
-    /// The reply frame (the request's reply, or ERROR) to a request other than
-    /// HELLO. Never throws: every failure becomes an ERROR frame whose code
-    /// follows docs/protocol.md.
-    std::vector<std::uint8_t> handle(const Frame& request) const;
+    /// The reply (the request's reply, or ERROR) to a request other than
+    /// HELLO. Never throws: every failure becomes an ERROR whose code
+    /// errorReplyFor() gives.
+    Answer handle(const Frame& request) const;
 
     /// HELLO_REPLY for a HELLO whose version was accepted.
     std::vector<std::uint8_t> helloReply(std::uint32_t request) const;

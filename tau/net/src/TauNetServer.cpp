@@ -222,15 +222,15 @@ private:
         if (!detail::RequestHandler::known(type)) {
             ++server_.protocolErrors;
             log().warn("%s sent unknown message type %s (request %u)", name_.c_str(), messageName(type).c_str(), id);
-            reply(detail::errorFrame(id, ErrorCode::UnknownMessage, "unknown message type " + messageName(type)));
+            reply(detail::errorAnswer(id, {ErrorCode::UnknownMessage, "unknown message type " + messageName(type)}).frame);
             return;
         }
         log().debug("%s: %s (request %u, %zu payload bytes)", name_.c_str(), messageName(type).c_str(), id,
                     frame.payload.size());
         if (!detail::RequestHandler::blocks(type)) {
-            std::vector<std::uint8_t> answer = server_.handler.handle(frame);
+            detail::Answer answer = server_.handler.handle(frame);
             logError(frame, answer);
-            reply(std::move(answer));
+            reply(std::move(answer.frame));
             return;
         }
 
@@ -239,12 +239,12 @@ private:
         cancelTimer();
         auto request = std::make_shared<Frame>(std::move(frame));
         asio::post(server_.workers, [self = shared_from_this(), request] {
-            auto answer = std::make_shared<std::vector<std::uint8_t>>(self->server_.handler.handle(*request));
+            auto answer = std::make_shared<detail::Answer>(self->server_.handler.handle(*request));
             asio::post(self->executor(), [self, request, answer] {
                 self->busy_ = false;
                 if (self->phase_ == Phase::Closed) return;
                 self->logError(*request, *answer);
-                self->reply(std::move(*answer));
+                self->reply(std::move(answer->frame));
                 self->resume();
             });
         });
@@ -254,21 +254,18 @@ private:
         const std::uint32_t id = frame.header.request;
         // The version comes first and is checked first: a client of another
         // version may well have a different HELLO payload.
-        if (frame.payload.size() >= 2) {
-            const unsigned version = (unsigned{frame.payload[0]} << 8) | frame.payload[1];
-            if (version != kProtocolVersion)
-                return closingError(id, ErrorCode::VersionUnsupported,
-                                    "protocol version " + std::to_string(version) +
-                                        " is not supported; this server speaks version " +
-                                        std::to_string(kProtocolVersion));
-        }
+        if (const auto version = helloVersion(frame.payload); version && *version != kProtocolVersion)
+            return closingError(id, ErrorCode::VersionUnsupported,
+                                "protocol version " + std::to_string(*version) +
+                                    " is not supported; this server speaks version " +
+                                    std::to_string(kProtocolVersion));
         Hello m;
         try {
             m = decodeHello(frame.payload);
         } catch (const ProtocolError& e) {
             ++server_.protocolErrors;
             log().warn("%s: HELLO (request %u): %s", name_.c_str(), id, e.what());
-            reply(detail::errorFrame(id, e.code(), detail::messageOf(e)));
+            reply(detail::errorAnswer(id, {e.code(), detail::messageOf(e)}).frame);
             return;
         }
         if (!hello_)
@@ -279,27 +276,22 @@ private:
     }
 
     /// Logs an ERROR answer (and counts BAD_PAYLOAD as a protocol error).
-    void logError(const Frame& request, const std::vector<std::uint8_t>& answer) {
-        if (answer.size() < kHeaderSize || answer[4] != 0xFF || answer[5] != 0xFF) return;
-        try {
-            const ErrorReply e =
-                decodeErrorReply(std::vector<std::uint8_t>(answer.begin() + kHeaderSize, answer.end()));
-            // The client's mistakes are warnings; refusing a valid request is information.
-            const bool clientFault = e.code == ErrorCode::BadPayload;
-            if (clientFault) ++server_.protocolErrors;
-            log().log(clientFault ? log4cpp::Priority::WARN : log4cpp::Priority::INFO,
-                      "%s: %s (request %u) answered %s: %s", name_.c_str(),
-                      messageName(request.header.type).c_str(), request.header.request, errorName(e.code),
-                      e.message.c_str());
-        } catch (const std::exception&) {
-        }
+    void logError(const Frame& request, const detail::Answer& answer) {
+        if (!answer.error) return;
+        const ErrorReply& e = *answer.error;
+        // The client's mistakes are warnings; refusing a valid request is information.
+        const bool clientFault = e.code == ErrorCode::BadPayload;
+        if (clientFault) ++server_.protocolErrors;
+        log().log(clientFault ? log4cpp::Priority::WARN : log4cpp::Priority::INFO, "%s: %s (request %u) answered %s: %s",
+                  name_.c_str(), messageName(request.header.type).c_str(), request.header.request, errorName(e.code),
+                  e.message.c_str());
     }
 
     /// Queues an ERROR after which the connection closes (docs/protocol.md).
     void closingError(std::uint32_t request, ErrorCode code, const std::string& message) {
         ++server_.protocolErrors;
         log().warn("%s: %s: %s; closing", name_.c_str(), errorName(code), message.c_str());
-        if (!reply(detail::errorFrame(request, code, message))) return;
+        if (!reply(detail::errorAnswer(request, {code, message}).frame)) return;
         phase_ = Phase::Closing;
         closeAfterWrite_ = true;
         cancelTimer();

@@ -318,6 +318,13 @@ std::vector<std::uint8_t> encode(const ImagesReply& m) {
     }
     return w.take();
 }
+std::size_t encodedSize(const ImagesReply& m) {
+    // iteration u64, kind u8, count u8; per image side u8, width u32, height u32, JPEG bytes (u32 length + data).
+    std::size_t size = 8 + 1 + 1;
+    for (const EncodedImage& i : m.images) size += 1 + 4 + 4 + 4 + i.jpeg.size();
+    return size;
+}
+
 std::vector<std::uint8_t> encode(const StatusReply& m) {
     Writer w;
     w.u8(m.state);
@@ -393,6 +400,11 @@ HelloReply decodeHelloReply(const std::vector<std::uint8_t>& payload) {
     r.end();
     return m;
 }
+std::optional<std::uint16_t> helloVersion(const std::vector<std::uint8_t>& payload) {
+    if (payload.size() < 2) return std::nullopt;
+    return static_cast<std::uint16_t>((unsigned{payload[0]} << 8) | payload[1]);
+}
+
 TakeSnapshot decodeTakeSnapshot(const std::vector<std::uint8_t>& payload) {
     Reader r(payload, "TAKE_SNAPSHOT");
     TakeSnapshot m;

@@ -35,6 +35,9 @@ log4cpp::Category& log() { return logging::category("vision"); }
 // How often the loop wakes when idle, so its heartbeat shows it is alive.
 constexpr std::chrono::milliseconds kIdleTick{100};
 
+// The source errors of a configuration sent to applyConfig() name.
+constexpr const char* kSentSource = "sent configuration";
+
 }  // namespace
 
 /// The vision thread and everything it owns. Members above the mutex are
@@ -70,11 +73,10 @@ public:
 
     void startSearching() {
         std::lock_guard<std::mutex> lock(mutex_);
-        if (status_.state == VisionState::Error)
-            throw InvalidArgument("cannot start searching: " + status_.error);
+        if (status_.state == VisionState::Error) throw InvalidState("cannot start searching: " + status_.error);
         if (status_.acquisition.state == AcquisitionStatus::State::Finished)
-            throw InvalidArgument("cannot start searching: the " + backendName_ + " backend has no more pairs (" +
-                                  status_.acquisition.message + ")");
+            throw InvalidState("cannot start searching: the " + backendName_ + " backend has no more pairs (" +
+                               status_.acquisition.message + ")");
         searching_ = true;
         wake_.notify_all();
     }
@@ -95,17 +97,17 @@ public:
         }
         wake_.notify_all();
         if (result.wait_for(timeout) != std::future_status::ready)
-            throw Error("snapshot timed out after " + std::to_string(timeout.count()) + " ms");
+            throw TimedOut("snapshot timed out after " + std::to_string(timeout.count()) + " ms");
         return result.get();
     }
 
     std::uint32_t applyConfig(const std::string& xml, std::chrono::milliseconds timeout) {
         // Validate on the caller's thread: a bad document never reaches the loop.
-        AvatarConfig config = readConfigString(xml, "sent configuration");
+        AvatarConfig config = readConfigString(xml, kSentSource);
         auto cancelled = std::make_shared<std::atomic<bool>>(false);
         std::packaged_task<std::uint32_t()> task([this, config, cancelled]() -> std::uint32_t {
-            if (*cancelled) throw Error("configuration change was cancelled (timed out)");
-            install(config);
+            if (*cancelled) throw TimedOut("configuration change was cancelled (timed out)");
+            install(config, Rejection::AsConfigError);
             std::lock_guard<std::mutex> lock(mutex_);
             return status_.configVersion;
         });
@@ -118,8 +120,8 @@ public:
         if (done.wait_for(timeout) != std::future_status::ready) {
             *cancelled = true;  // if it has not started, it never will
             if (done.wait_for(std::chrono::milliseconds(0)) != std::future_status::ready)
-                throw Error("configuration change timed out after " + std::to_string(timeout.count()) +
-                            " ms; the previous configuration stays in force");
+                throw TimedOut("configuration change timed out after " + std::to_string(timeout.count()) +
+                               " ms; the previous configuration stays in force");
         }
         return done.get();
     }
@@ -172,11 +174,34 @@ public:
     std::string backendName() const { return backendName_; }
 
 private:
+    /// How install() reports a configuration that validated but cannot be used.
+    enum class Rejection {
+        AsThrown,       ///< the constructor and recorded configurations: the error as it is
+        AsConfigError   ///< a configuration a client sent: ConfigError naming the part that refused it
+    };
+
     /// Applies a configuration to the backend and the analysis, all or nothing.
+    /// With Rejection::AsConfigError an analysis that cannot be built from it
+    /// (a stage order, a lighting template that cannot be read) and a backend
+    /// that cannot use it (InvalidArgument) are ConfigErrors of the sent
+    /// configuration; a backend that fails (AcquisitionError) stays one.
     /// Vision thread only (or the constructor).
-    void install(const AvatarConfig& config) {
-        auto analyzer = std::make_unique<AnalyzeStereoImagePair>(config, options_.configDirectory);
-        backend_->applyConfig(config);  // throws and keeps the old settings
+    void install(const AvatarConfig& config, Rejection rejection = Rejection::AsThrown) {
+        const auto rejected = [&](const char* part, const Error& e) {
+            if (rejection == Rejection::AsThrown || dynamic_cast<const ConfigError*>(&e)) throw;
+            throw ConfigError(kSentSource, 0, part, std::string("cannot be applied: ") + e.what());
+        };
+        std::unique_ptr<AnalyzeStereoImagePair> analyzer;
+        try {
+            analyzer = std::make_unique<AnalyzeStereoImagePair>(config, options_.configDirectory);
+        } catch (const Error& e) {
+            rejected("/avatar/analysis", e);
+        }
+        try {
+            backend_->applyConfig(config);  // throws and keeps the old settings
+        } catch (const InvalidArgument& e) {
+            rejected("/avatar/camera", e);
+        }
         analyzer_ = std::move(analyzer);
         const std::string xml = writeConfigString(config);
         std::lock_guard<std::mutex> lock(mutex_);
@@ -274,7 +299,7 @@ private:
                 wake_.wait_for(lock, options_.searchPeriod, [this] { return stop_ || !commands_.empty(); });
         }
         // Nobody will fulfil these any more.
-        for (auto& p : snapshots_) p.set_exception(std::make_exception_ptr(Error("vision interface stopped")));
+        for (auto& p : snapshots_) p.set_exception(std::make_exception_ptr(InvalidState("vision interface stopped")));
     }
 
     // Vision thread only.

@@ -200,6 +200,16 @@ std::vector<std::uint8_t> encode(const ErrorReply& m);
 /// TargetData: VisionTargets minus nothing: every field of docs/protocol.md.
 std::vector<std::uint8_t> encode(const VisionTargets& m);
 
+/// The size of encode(@p m) in bytes, computed without encoding: a server can
+/// refuse a reply above kMaxReplyPayload before building it.
+std::size_t encodedSize(const ImagesReply& m);
+
+/// The protocol version a HELLO payload announces: its first field, read
+/// before the rest is decoded, since a client of another version may send
+/// another HELLO layout (docs/protocol.md). std::nullopt when the payload is
+/// too short to hold it.
+std::optional<std::uint16_t> helloVersion(const std::vector<std::uint8_t>& payload);
+
 Hello decodeHello(const std::vector<std::uint8_t>& payload);
 HelloReply decodeHelloReply(const std::vector<std::uint8_t>& payload);
 TakeSnapshot decodeTakeSnapshot(const std::vector<std::uint8_t>& payload);

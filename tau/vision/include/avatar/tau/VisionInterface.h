@@ -91,7 +91,7 @@ public:
     VisionInterface(const VisionInterface&) = delete;
     VisionInterface& operator=(const VisionInterface&) = delete;
 
-    /// Starts continuous acquisition and analysis. Throws avatar::InvalidArgument
+    /// Starts continuous acquisition and analysis. Throws avatar::InvalidState
     /// when the backend has failed or finished (the status says which).
     void startSearching();
     /// Stops after the current iteration; a no-op when not searching.
@@ -99,8 +99,8 @@ public:
 
     /// Acquires and analyses one pair and returns its targets. While searching,
     /// returns the result of the next iteration instead. Throws AcquisitionError
-    /// (naming the camera or file) when no pair could be had, and avatar::Error
-    /// "snapshot timed out" after @p timeout.
+    /// (naming the camera or file) when no pair could be had, avatar::TimedOut
+    /// after @p timeout, and avatar::InvalidState when the interface stops first.
     VisionTargets snapshot(std::chrono::milliseconds timeout = std::chrono::seconds(10));
 
     /// The latest targets; std::nullopt before the first iteration.
@@ -113,9 +113,12 @@ public:
 
     /// Validates a whole XML document and applies it atomically between two
     /// iterations: the analysis is rebuilt and the backend reconfigured, which
-    /// starts a new acquisition group. On any error (ConfigError with file, line
-    /// and element; InvalidArgument; AcquisitionError) nothing changes and the
-    /// old configuration stays in force. Returns the new configuration version.
+    /// starts a new acquisition group. On any error nothing changes and the old
+    /// configuration stays in force: ConfigError when the document is invalid
+    /// (with line and element) or cannot be applied (an analysis that cannot be
+    /// built, a camera configuration the backend cannot use: the element of the
+    /// part that refused it), AcquisitionError when the backend fails, and
+    /// avatar::TimedOut after @p timeout. Returns the new configuration version.
     std::uint32_t applyConfig(const std::string& xml,
                               std::chrono::milliseconds timeout = std::chrono::seconds(10));
 
