@@ -1,4 +1,4 @@
-#include "ScorpionCalibration.h"
+#include "SampleConfigs.h"
 
 #include <avatar/common/CameraModel.h>
 

@@ -1,5 +1,5 @@
 #include "CraftedFeature.h"
-#include "ScorpionCalibration.h"
+#include "SampleConfigs.h"
 
 #include <avatar/common/CameraModel.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>

@@ -1,7 +1,7 @@
 // The analysis orchestrator on synthetic pairs drawn with exact geometry:
 // discs facing the left camera, projected with the Scorpion calibration.
 
-#include "ScorpionCalibration.h"
+#include "SampleConfigs.h"
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/CameraModel.h>

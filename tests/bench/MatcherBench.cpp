@@ -10,7 +10,8 @@
 // shuffled. Every
 // naive result is checked against the matcher's before timing.
 
-#include "../analyze/CraftedFeature.h"
+#include "CraftedFeature.h"
+#include "SampleConfigs.h"
 
 #include <avatar/common/CameraModel.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
@@ -30,15 +31,10 @@ namespace {
 using test::featureFromPixels;
 
 StereoSystemConfig rig() {
-    StereoSystemConfig c;
-    c.left.fc = {1049.13, 1050.38};
-    c.left.cc = {712.28, 564.45};
-    c.right.fc = {1047.20, 1048.66};
-    c.right.cc = {702.74, 561.13};
+    StereoSystemConfig c = test::scorpionCalibration();
     // Table 6-4 has 0.047 rad of roll, which tilts rows by up to 30 px across
     // the image: too much for a box. Benchmark a rig the box suits.
     c.om = {0.002, 0.003, 0.004};
-    c.translationMm = {-106.53, -2.58, 0.82};
     c.left.kc = {-0.15, 0.06, 0.001, -0.001, 0.0};
     c.right.kc = {-0.14, 0.05, -0.001, 0.0008, 0.0};
     return c;

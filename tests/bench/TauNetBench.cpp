@@ -21,6 +21,8 @@
 //   bench_taunet --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 // and read the *_median rows.
 
+#include "SphereScene.h"
+
 #include <avatar/acquire/AcquireSIPSimulation.h>
 #include <avatar/tau/Protocol.h>
 #include <avatar/tau/TauNetServer.h>
@@ -49,62 +51,15 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-StereoSystemConfig halfScorpion() {
-    StereoSystemConfig c;
-    c.left.fc = {1049.13 / 2, 1050.38 / 2};
-    c.left.cc = {712.28 / 2, 564.45 / 2};
-    c.right.fc = {1047.20 / 2, 1048.66 / 2};
-    c.right.cc = {702.74 / 2, 561.13 / 2};
-    c.om = {0.002, 0.003, 0.047};
-    c.translationMm = {-106.53, -2.58, 0.82};
-    return c;
-}
-
-AvatarConfig config() {
-    AvatarConfig c;
-    c.camera.width = 640;
-    c.camera.height = 480;
-    c.camera.bitDepth = 16;
-    c.camera.channels = 1;
-    c.camera.bayer = true;
-    c.camera.bayerPattern = BayerPattern::BG;
-    c.stereo = halfScorpion();
-    TargetType sample;
-    sample.name = "sample";
-    sample.redGreen = {0.9, 1.6};
-    sample.redBlue = {2.5, 100};
-    sample.blueGreen = {0, 0.45};
-    sample.area = {100, 1e6};
-    sample.shape = TargetShape::Sphere;
-    c.targets.targets = {sample};
-    c.match.boxDxMin = 5;
-    c.match.boxDxMax = 200;
-    c.match.boxDyMin = -20;
-    c.match.boxDyMax = 25;
-    return c;
-}
+AvatarConfig config() { return test::sphereSceneConfig(); }
 
 /// Renders the sphere scene once; every grab hands over a copy of that pair.
 class Prerendered final : public AcquireStereoImagePair {
 public:
     Prerendered() {
-        render::Scene scene;
-        scene.seabed.distanceMm = 1200;
-        scene.sensor.readNoiseDn = 8;
-        render::TargetSpec sphere;
-        sphere.name = "ball";
-        sphere.type = "sample";
-        sphere.shape = render::Shape::Sphere;
-        sphere.centreMm = {30, 20, 800};
-        sphere.radiusMm = 30;
-        scene.targets = {sphere};
-        render::RenderOptions options;
-        options.sensor.width = 640;
-        options.sensor.height = 480;
-        options.seed = 7;
-        AcquireSIPSimulation simulation(scene, halfScorpion(), options);
-        simulation.applyConfig(config());
-        pair_ = simulation.acquire().pair;
+        const auto simulation = test::sphereSimulation();
+        simulation->applyConfig(config());
+        pair_ = simulation->acquire().pair;
     }
     std::string name() const override { return "simulation"; }
 

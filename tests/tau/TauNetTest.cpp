@@ -3,6 +3,8 @@
 // bundled lab session), driven by raw Boost.Asio clients that build and parse
 // frames by hand from docs/protocol.md. Every loop is bounded in time.
 
+#include "SphereScene.h"
+
 #include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/config/ConfigXml.h>
 #include <avatar/acquire/AcquireSIPSimulation.h>
@@ -42,67 +44,13 @@ extern char** environ;
 
 namespace {
 
-// ---- the simulation backend of VisionInterfaceTest (640x480, one sphere) ----
-
-StereoSystemConfig halfScorpion() {
-    StereoSystemConfig c;
-    c.left.fc = {1049.13 / 2, 1050.38 / 2};
-    c.left.cc = {712.28 / 2, 564.45 / 2};
-    c.right.fc = {1047.20 / 2, 1048.66 / 2};
-    c.right.cc = {702.74 / 2, 561.13 / 2};
-    c.om = {0.002, 0.003, 0.047};
-    c.translationMm = {-106.53, -2.58, 0.82};
-    return c;
-}
-
-AvatarConfig simConfig() {
-    AvatarConfig c;
-    c.camera.width = 640;
-    c.camera.height = 480;
-    c.camera.bitDepth = 16;
-    c.camera.channels = 1;
-    c.camera.bayer = true;
-    c.camera.bayerPattern = BayerPattern::BG;
-    c.stereo = halfScorpion();
-    TargetType sample;
-    sample.name = "sample";
-    sample.redGreen = {0.9, 1.6};
-    sample.redBlue = {2.5, 100};
-    sample.blueGreen = {0, 0.45};
-    sample.area = {100, 1e6};
-    sample.shape = TargetShape::Sphere;
-    c.targets.targets = {sample};
-    c.match.boxDxMin = 5;
-    c.match.boxDxMax = 200;
-    c.match.boxDyMin = -20;
-    c.match.boxDyMax = 25;
-    return c;
-}
-
-const cv::Point3d kSphereMm{30, 20, 800};
-
-std::unique_ptr<AcquireStereoImagePair> simulation() {
-    render::Scene scene;
-    scene.seabed.distanceMm = 1200;
-    scene.sensor.readNoiseDn = 8;
-    render::TargetSpec sphere;
-    sphere.name = "ball";
-    sphere.type = "sample";
-    sphere.shape = render::Shape::Sphere;
-    sphere.centreMm = {kSphereMm.x, kSphereMm.y, kSphereMm.z};
-    sphere.radiusMm = 30;
-    scene.targets = {sphere};
-    render::RenderOptions options;
-    options.sensor.width = 640;
-    options.sensor.height = 480;
-    options.seed = 7;
-    return std::make_unique<AcquireSIPSimulation>(scene, halfScorpion(), options);
-}
+// The sphere scene of tests/support/SphereScene.h (640x480, one sphere).
+using test::kSphereMm;
 
 /// A VisionInterface and a TauNetServer on 127.0.0.1, ephemeral port.
 struct Daemon {
-    explicit Daemon(tau::TauNetOptions options = {}, std::unique_ptr<AcquireStereoImagePair> backend = simulation(),
-                    const AvatarConfig& config = simConfig(), std::filesystem::path configDirectory = {}) {
+    explicit Daemon(tau::TauNetOptions options = {}, std::unique_ptr<AcquireStereoImagePair> backend = test::sphereSimulation(),
+                    const AvatarConfig& config = test::sphereSceneConfig(), std::filesystem::path configDirectory = {}) {
         VisionOptions vo;
         vo.configDirectory = std::move(configDirectory);
         vision = std::make_unique<VisionInterface>(std::move(backend), config, vo);
@@ -735,7 +683,7 @@ TEST(TauNet, RejectedConfigurationKeepsTheOldOne) {
     EXPECT_EQ(c.request(kSendConfig, 2, strPayload(bad)).bytes, errorFrame(2, 7, expected));
 
     // Valid XML whose analysis cannot be built: rejected too.
-    AvatarConfig broken = simConfig();
+    AvatarConfig broken = test::sphereSceneConfig();
     broken.analysis.stages = {"demosaic", "match"};
     f = c.request(kSendConfig, 3, strPayload(writeConfigString(broken)));
     EXPECT_EQ(f.type, 0xFFFF);
@@ -761,7 +709,7 @@ TEST(TauNet, AppliedConfigurationIsReportedAndServed) {
     Client c(d.port());
     c.hello();
     ASSERT_EQ(c.request(kSnapshot, 1, u32Payload(20000)).type, 0x8004);
-    AvatarConfig narrower = simConfig();
+    AvatarConfig narrower = test::sphereSceneConfig();
     narrower.targets.targets[0].area = {100, 200};  // the sphere is larger: filtered out
     const std::string xml = writeConfigString(narrower);
     Bytes applied;
@@ -1021,7 +969,7 @@ TEST(TauNet, StatusReportsTheRecording) {
         auto vision = [&] {
             VisionOptions vo;
             vo.recordDirectory = dir;
-            return std::make_unique<VisionInterface>(simulation(), simConfig(), vo);
+            return std::make_unique<VisionInterface>(test::sphereSimulation(), test::sphereSceneConfig(), vo);
         }();
         tau::TauNetOptions options;
         options.port = 0;
@@ -1079,7 +1027,7 @@ TEST(TauNet, StopClosesEveryConnection) {
 }
 
 TEST(TauNet, OptionsAreCheckedAndABusyPortIsAnIoError) {
-    VisionInterface vision(simulation(), simConfig());
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
     tau::TauNetOptions bad;
     bad.workerThreads = 0;
     std::string why;

@@ -1,6 +1,8 @@
 // VisionInterface driven by the simulation backend: real rendering, real
 // analysis, real threads.
 
+#include "SphereScene.h"
+
 #include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/acquire/SessionLog.h>
 #include <avatar/common/CameraModel.h>
@@ -21,61 +23,8 @@ using namespace std::chrono_literals;
 
 namespace {
 
-// The Scorpion calibration (thesis Table 6-4) at half resolution, 640x480.
-StereoSystemConfig halfScorpion() {
-    StereoSystemConfig c;
-    c.left.fc = {1049.13 / 2, 1050.38 / 2};
-    c.left.cc = {712.28 / 2, 564.45 / 2};
-    c.right.fc = {1047.20 / 2, 1048.66 / 2};
-    c.right.cc = {702.74 / 2, 561.13 / 2};
-    c.om = {0.002, 0.003, 0.047};
-    c.translationMm = {-106.53, -2.58, 0.82};
-    return c;
-}
-
-AvatarConfig config() {
-    AvatarConfig c;
-    c.camera.width = 640;
-    c.camera.height = 480;
-    c.camera.bitDepth = 16;
-    c.camera.channels = 1;
-    c.camera.bayer = true;
-    c.camera.bayerPattern = BayerPattern::BG;
-    c.stereo = halfScorpion();
-    TargetType sample;
-    sample.name = "sample";
-    sample.redGreen = {0.9, 1.6};
-    sample.redBlue = {2.5, 100};
-    sample.blueGreen = {0, 0.45};
-    sample.area = {100, 1e6};
-    sample.shape = TargetShape::Sphere;
-    c.targets.targets = {sample};
-    c.match.boxDxMin = 5;
-    c.match.boxDxMax = 200;
-    c.match.boxDyMin = -20;
-    c.match.boxDyMax = 25;
-    return c;
-}
-
-const cv::Point3d kSphereMm{30, 20, 800};
-
-std::unique_ptr<AcquireSIPSimulation> simulation() {
-    render::Scene scene;
-    scene.seabed.distanceMm = 1200;
-    scene.sensor.readNoiseDn = 8;
-    render::TargetSpec sphere;
-    sphere.name = "ball";
-    sphere.type = "sample";
-    sphere.shape = render::Shape::Sphere;
-    sphere.centreMm = {kSphereMm.x, kSphereMm.y, kSphereMm.z};
-    sphere.radiusMm = 30;
-    scene.targets = {sphere};
-    render::RenderOptions options;
-    options.sensor.width = 640;
-    options.sensor.height = 480;
-    options.seed = 7;
-    return std::make_unique<AcquireSIPSimulation>(scene, halfScorpion(), options);
-}
+// The sphere scene of tests/support/SphereScene.h (640x480, one sphere).
+using test::kSphereMm;
 
 template <typename Predicate>
 bool eventually(Predicate p, std::chrono::milliseconds limit = 30s) {
@@ -90,7 +39,7 @@ bool eventually(Predicate p, std::chrono::milliseconds limit = 30s) {
 }  // namespace
 
 TEST(VisionInterface, SnapshotLocatesTheSphereAndUpdatesTheBookkeeping) {
-    VisionInterface vision(simulation(), config());
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
     EXPECT_EQ(vision.backendName(), "simulation");
     EXPECT_FALSE(vision.latestTargets().has_value());
     EXPECT_EQ(vision.images(ImageKind::Original).iteration, 0u);
@@ -125,13 +74,13 @@ TEST(VisionInterface, SnapshotLocatesTheSphereAndUpdatesTheBookkeeping) {
     const VisionImages marked = vision.images(ImageKind::Marked);
     EXPECT_EQ(marked.pair.left().type(), CV_8UC3);
     const VisionImages filtered = vision.images(ImageKind::Filtered);
-    const auto px = *projectPoint(halfScorpion().left, kSphereMm);
+    const auto px = *projectPoint(test::halfScorpion().left, kSphereMm);
     EXPECT_GT(cv::norm(filtered.pair.left().at<cv::Vec3w>(cvRound(px.y), cvRound(px.x))), 0.0);
     EXPECT_EQ(filtered.pair.left().at<cv::Vec3w>(5, 5), cv::Vec3w(0, 0, 0));
 }
 
 TEST(VisionInterface, SearchingRunsUntilStoppedAndTheHeartbeatBeats) {
-    VisionInterface vision(simulation(), config());
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
     const auto idleBeat = vision.status().heartbeat;
     std::this_thread::sleep_for(350ms);
     EXPECT_GE(vision.status().heartbeat, idleBeat + 2);  // the idle loop ticks every 100 ms
@@ -150,7 +99,7 @@ TEST(VisionInterface, SearchingRunsUntilStoppedAndTheHeartbeatBeats) {
 }
 
 TEST(VisionInterface, RejectedConfigurationKeepsTheOldOne) {
-    VisionInterface vision(simulation(), config());
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
     const std::string before = vision.configXml();
     std::string bad = before;
     bad.replace(bad.find("<width>640</width>"), 18, "<width>wide</width>");
@@ -168,10 +117,10 @@ TEST(VisionInterface, RejectedConfigurationKeepsTheOldOne) {
 }
 
 TEST(VisionInterface, AppliedConfigurationStartsANewGroupAndVersion) {
-    VisionInterface vision(simulation(), config());
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
     vision.snapshot();
     vision.snapshot();
-    AvatarConfig narrower = config();
+    AvatarConfig narrower = test::sphereSceneConfig();
     narrower.targets.targets[0].area = {100, 200};  // the sphere is larger: filtered out
     EXPECT_EQ(vision.applyConfig(writeConfigString(narrower)), 2u);
     const VisionStatus s = vision.status();
@@ -186,11 +135,11 @@ TEST(VisionInterface, AppliedConfigurationStartsANewGroupAndVersion) {
 }
 
 TEST(VisionInterface, AnalysisThatCannotBeBuiltIsRejectedWhole) {
-    VisionInterface vision(simulation(), config());
-    AvatarConfig broken = config();
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
+    AvatarConfig broken = test::sphereSceneConfig();
     broken.analysis.stages = {"demosaic", "match"};
     EXPECT_THROW(vision.applyConfig(writeConfigString(broken)), InvalidArgument);
-    EXPECT_EQ(vision.config(), config());
+    EXPECT_EQ(vision.config(), test::sphereSceneConfig());
     EXPECT_EQ(vision.status().configVersion, 1u);
 }
 
@@ -203,9 +152,9 @@ TEST(VisionInterface, RecordsEveryPairAndReplaysItBitForBit) {
         VisionOptions options;
         options.recordDirectory = dir;
         options.recordPng = true;
-        VisionInterface vision(simulation(), config(), options);
+        VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig(), options);
         for (int i = 0; i < 3; ++i) live.push_back(vision.snapshot());
-        AvatarConfig changed = config();
+        AvatarConfig changed = test::sphereSceneConfig();
         changed.targets.targets[0].area = {100, 2e6};
         vision.applyConfig(writeConfigString(changed));
         live.push_back(vision.snapshot());
@@ -224,7 +173,7 @@ TEST(VisionInterface, RecordsEveryPairAndReplaysItBitForBit) {
     EXPECT_EQ(records[3].acquisition.group, 2u);
 
     // Replaying the recording through a new VisionInterface gives the same targets.
-    VisionInterface replay(std::make_unique<RawDataAcquire>(dir), config());
+    VisionInterface replay(std::make_unique<RawDataAcquire>(dir), test::sphereSceneConfig());
     for (std::size_t i = 0; i < live.size(); ++i) {
         const VisionTargets again = replay.snapshot();
         EXPECT_EQ(again.iteration, live[i].iteration);

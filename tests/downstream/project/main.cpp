@@ -60,7 +60,7 @@ int main() {
     std::cout << "pair: " << pair.describe() << "\n";
 
     avatar::AvatarConfig config;
-    config.stereo.left.fc = {1049.13, 1050.38};
+    config.stereo.left.fc = {800.0, 805.0};
     config.targets.targets.push_back(avatar::TargetType{});
     config.targets.targets.back().name = "sample";
     const auto back = avatar::readConfigString(avatar::writeConfigString(config), "downstream");
