@@ -9,8 +9,7 @@
 //   avatar-replay --session data/sessions/lab --write /tmp/lab-new
 //   cp /tmp/lab-new/session.log data/sessions/lab/session.log
 #include <avatar/acquire/RawDataAcquire.h>
-#include <avatar/analyze/AnalyzeStereoImagePair.h>
-#include <avatar/config/ConfigXml.h>
+#include <avatar/tau/ReplayAnalysis.h>
 
 #include <gtest/gtest.h>
 
@@ -34,37 +33,29 @@ std::string describe(const std::vector<ResultDifference>& diffs) {
 
 /// Replays the lab session; returns the number of iterations compared.
 std::size_t replayLab(bool parallel) {
-    RawDataAcquire replay(kLab);
-    EXPECT_TRUE(replay.reader().errors().empty());
-    std::unique_ptr<AnalyzeStereoImagePair> analyzer;
+    ReplayAnalysis replay(kLab);
+    replay.setParallel(parallel);
+    EXPECT_TRUE(replay.replay().reader().errors().empty());
     std::size_t compared = 0;
-    while (replay.status().state != AcquisitionStatus::State::Finished) {
-        AcquiredPair acquired;
-        try {
-            acquired = replay.acquire();
-        } catch (const AcquisitionError& e) {
-            ADD_FAILURE() << e.what();
+    while (!replay.finished()) {
+        const ReplayStep step = replay.next();
+        if (step.damaged()) {
+            ADD_FAILURE() << step.damage;
             continue;
         }
-        const std::uint64_t iteration = acquired.recordedIteration.value();
-        SCOPED_TRACE("iteration " + std::to_string(iteration));
-        if (acquired.recordedConfigXml) {
-            analyzer = std::make_unique<AnalyzeStereoImagePair>(
-                readConfigString(*acquired.recordedConfigXml, "lab session config"), kLab);
-            analyzer->setParallel(parallel);
-        }
-        if (!analyzer) {
-            ADD_FAILURE() << "no configuration before this pair";
+        SCOPED_TRACE("iteration " + std::to_string(step.iteration()));
+        if (!step.result) {
+            ADD_FAILURE() << step.failure;
             continue;
         }
+        const AcquiredPair& acquired = *step.acquired;
         if (!acquired.recordedResult) {
             ADD_FAILURE() << "the session has no recorded result to compare with; regenerate it" << describe({});
             continue;
         }
         // The reference is not vacuous: the lab scene has its sample and the arm marker in view.
         EXPECT_EQ(acquired.recordedResult->targets.size(), 2u);
-        const VisionTargets result = analyzer->analyze(acquired.pair, iteration);
-        const auto diffs = compareResults(*acquired.recordedResult, result);
+        const auto diffs = compareResults(*acquired.recordedResult, *step.result);
         EXPECT_TRUE(diffs.empty()) << diffs.size() << " field(s) differ:" << describe(diffs);
         ++compared;
     }

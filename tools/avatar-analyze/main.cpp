@@ -1,12 +1,11 @@
 // avatar-analyze: runs the AVATAR analysis on the pairs of a recorded session
-// and prints the targets of each iteration. User guide: docs/tools/avatar-analyze.md
+// (ReplayAnalysis) and prints the targets of each iteration. User guide: docs/tools/avatar-analyze.md
 
-#include <avatar/acquire/SessionLog.h>
-#include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
 #include <avatar/common/StereoImagePairFileIO.h>
 #include <avatar/config/ConfigXml.h>
+#include <avatar/tau/ReplayAnalysis.h>
 
 #include <boost/program_options.hpp>
 
@@ -70,55 +69,38 @@ int main(int argc, char** argv) {
     int failures = 0;
     try {
         logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
-        const std::filesystem::path dir = vm["session"].as<std::string>();
-        SessionLogReader reader(dir);
-        for (const std::string& e : reader.errors()) {
-            std::cerr << "avatar-analyze: damaged record: " << e << "\n";
-            ++failures;
-        }
         std::optional<AvatarConfig> fixed;
-        if (vm.count("config")) fixed = readConfigFile(vm["config"].as<std::string>());
-        std::unique_ptr<AnalyzeStereoImagePair> analyzer;
-        std::optional<std::uint32_t> version;
+        std::filesystem::path configDir;
+        if (vm.count("config")) {
+            const std::filesystem::path file = vm["config"].as<std::string>();
+            fixed = readConfigFile(file);
+            configDir = file.parent_path();
+        }
+        ReplayAnalysis replay(vm["session"].as<std::string>(), fixed, configDir);
         const int limit = vm["iterations"].as<int>();
-        int done = 0;
-        for (const SessionRecord& record : reader.records()) {
-            if (limit > 0 && done >= limit) break;
-            if (!analyzer || (!fixed && version != record.configVersion)) {
-                AvatarConfig config;
-                if (fixed) {
-                    config = *fixed;
-                } else {
-                    const auto xml = reader.configXml(record.configVersion);
-                    if (!xml) {
-                        std::cerr << "avatar-analyze: iteration " << record.iteration << ": configuration "
-                                  << record.configVersion << " is not in the log; skipped\n";
-                        ++failures;
-                        continue;
-                    }
-                    config = readConfigString(*xml, reader.logPath().string() + " (config " +
-                                                        std::to_string(record.configVersion) + ")");
-                }
-                analyzer = std::make_unique<AnalyzeStereoImagePair>(config, dir);
-                version = record.configVersion;
-            }
-            try {
-                const VisionTargets result = analyzer->analyze(reader.loadPair(record), record.iteration);
-                printTargets(result);
-                if (vm.count("marked")) {
-                    const std::filesystem::path out = vm["marked"].as<std::string>();
-                    std::filesystem::create_directories(out);
-                    const auto marked = analyzer->markedImages();
-                    const std::string stem = "marked_" + std::to_string(record.iteration);
-                    const PairLayout layout{PixelFormat::Bgr, BayerPattern::BG, 8};
-                    StereoImagePairFileIO::writeDisplay(out / (stem + "_L.jpg"), marked.left(), layout);
-                    StereoImagePairFileIO::writeDisplay(out / (stem + "_R.jpg"), marked.right(), layout);
-                }
-            } catch (const Error& e) {
-                std::cerr << "avatar-analyze: iteration " << record.iteration << ": " << e.what() << "\n";
+        for (int done = 0; !replay.finished() && (limit == 0 || done < limit);) {
+            const ReplayStep step = replay.next();
+            if (step.damaged()) {
+                std::cerr << "avatar-analyze: damaged record: " << step.damage << "\n";
                 ++failures;
+                continue;
             }
             ++done;
+            if (!step.result) {
+                std::cerr << "avatar-analyze: iteration " << step.iteration() << ": " << step.failure << "\n";
+                ++failures;
+                continue;
+            }
+            printTargets(*step.result);
+            if (vm.count("marked")) {
+                const std::filesystem::path out = vm["marked"].as<std::string>();
+                std::filesystem::create_directories(out);
+                const auto marked = replay.analyzer()->markedImages();
+                const std::string stem = "marked_" + std::to_string(step.iteration());
+                const PairLayout layout{PixelFormat::Bgr, BayerPattern::BG, 8};
+                StereoImagePairFileIO::writeDisplay(out / (stem + "_L.jpg"), marked.left(), layout);
+                StereoImagePairFileIO::writeDisplay(out / (stem + "_R.jpg"), marked.right(), layout);
+            }
         }
     } catch (const Error& e) {
         std::cerr << "avatar-analyze: " << e.what() << "\n";

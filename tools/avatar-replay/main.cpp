@@ -4,9 +4,8 @@
 // 4.3). Optionally records a new session with this build's results.
 // User guide: docs/tools/avatar-replay.md
 
-#include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/acquire/SessionLog.h>
-#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/tau/ReplayAnalysis.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
 #include <avatar/common/StereoImagePairFileIO.h>
@@ -119,20 +118,19 @@ int main(int argc, char** argv) {
     try {
         logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
         const std::filesystem::path dir = vm["session"].as<std::string>();
-        RawDataAcquire replay(dir);
-        summary.records = replay.entryCount();
-
         std::optional<AvatarConfig> fixed;
-        std::filesystem::path configDir = dir;
+        std::filesystem::path configDir;
         if (vm.count("config")) {
             const std::filesystem::path file = vm["config"].as<std::string>();
             fixed = readConfigFile(file);
             configDir = file.parent_path();
         }
-        std::unique_ptr<SessionLogWriter> writer;
-        if (vm.count("write")) writer = std::make_unique<SessionLogWriter>(vm["write"].as<std::string>());
         std::optional<std::string> fixedXmlToWrite;
         if (fixed) fixedXmlToWrite = writeConfigString(*fixed);
+        ReplayAnalysis replay(dir, fixed, configDir);
+        summary.records = replay.replay().entryCount();
+        std::unique_ptr<SessionLogWriter> writer;
+        if (vm.count("write")) writer = std::make_unique<SessionLogWriter>(vm["write"].as<std::string>());
 
         report << "avatar-replay report\nsession: " << dir.string() << "\n"
                << "configuration: "
@@ -140,58 +138,28 @@ int main(int argc, char** argv) {
                << "\ncompared: every field of each result, doubles bit for bit, and the stage names; "
                   "not the stage timings, which measure each run and can never match\n\n";
 
-        std::unique_ptr<AnalyzeStereoImagePair> analyzer;
-        if (fixed) analyzer = std::make_unique<AnalyzeStereoImagePair>(*fixed, configDir);
-        std::string configProblem;  // why the recorded configuration in force cannot be used
-
         Progress progress(summary.records, isatty(STDOUT_FILENO) == 1);
         progress.update(0, "");
-        while (replay.status().state != AcquisitionStatus::State::Finished) {
-            AcquiredPair acquired;
-            try {
-                acquired = replay.acquire();
-            } catch (const AcquisitionError& e) {
+        while (!replay.finished()) {
+            const ReplayStep step = replay.next();
+            if (step.damaged()) {
                 ++summary.damaged;
-                progress.line(std::string("DAMAGED: ") + e.what());
-                report << "DAMAGED: " << e.what() << "\n";
-                progress.update(replay.position(), "");
+                progress.line("DAMAGED: " + step.damage);
+                report << "DAMAGED: " << step.damage << "\n";
+                progress.update(replay.replay().position(), "");
                 continue;
             }
             ++summary.replayed;
-            const std::uint64_t iteration = acquired.recordedIteration.value_or(0);
+            const AcquiredPair& acquired = *step.acquired;
+            const std::uint64_t iteration = step.iteration();
             const std::string who = identity(acquired.pair, iteration);
-            const SessionRecord& record = *replay.lastRecord();
-
-            if (!fixed && acquired.recordedConfigXml) {
-                analyzer.reset();
-                configProblem.clear();
-                try {
-                    const AvatarConfig config = readConfigString(
-                        *acquired.recordedConfigXml,
-                        replay.reader().logPath().string() + " (config " + std::to_string(record.configVersion) + ")");
-                    analyzer = std::make_unique<AnalyzeStereoImagePair>(config, configDir);
-                } catch (const Error& e) {
-                    configProblem = "configuration " + std::to_string(record.configVersion) +
-                                    " cannot be used: " + e.what();
-                }
-            }
-
-            std::optional<VisionTargets> result;
-            std::string failure;
-            if (!analyzer) {
-                failure = configProblem;
-            } else {
-                try {
-                    result = analyzer->analyze(acquired.pair, iteration);
-                } catch (const Error& e) {
-                    failure = std::string("analysis failed: ") + e.what();
-                }
-            }
+            const SessionRecord& record = *replay.replay().lastRecord();
+            const std::optional<VisionTargets>& result = step.result;
 
             if (!result) {
                 ++summary.failed;
-                progress.line(who + ": FAILED: " + failure);
-                report << who << ": FAILED: " << failure << "\n";
+                progress.line(who + ": FAILED: " + step.failure);
+                report << who << ": FAILED: " << step.failure << "\n";
             } else if (!acquired.recordedResult) {
                 ++summary.missingResult;
                 progress.line(who + ": no recorded result to compare with (" + std::to_string(result->targets.size()) +
@@ -238,7 +206,7 @@ int main(int argc, char** argv) {
                 out.files = writer->writePair(acquired.pair, compression, byteOrder);
                 writer->append(out);
             }
-            progress.update(replay.position(), who);
+            progress.update(replay.replay().position(), who);
         }
         progress.clear();
     } catch (const Error& e) {
