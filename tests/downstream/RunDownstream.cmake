@@ -1,4 +1,5 @@
 # cmake -P script run by ctest; see CMakeLists.txt beside it.
+cmake_minimum_required(VERSION 3.22)
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
 
@@ -11,9 +12,42 @@ function(run step)
 endfunction()
 
 run(install ${CMAKE_COMMAND} --install ${AVATAR_BUILD_DIR} --prefix ${prefix})
+
+# No internal header is installed (libcamera's rule): the headers under an
+# internal/ folder and those beside the sources stay in the tree.
+set(internal_names "")
+file(GLOB_RECURSE tree_headers RELATIVE ${SOURCE_DIR} ${SOURCE_DIR}/common/*.h ${SOURCE_DIR}/config/*.h
+     ${SOURCE_DIR}/acquire/*.h ${SOURCE_DIR}/analyze/*.h ${SOURCE_DIR}/tau/*.h)
+foreach(header IN LISTS tree_headers)
+  if(NOT header MATCHES "/include/avatar/" OR header MATCHES "/internal/")
+    get_filename_component(name "${header}" NAME)
+    list(APPEND internal_names "${name}")
+  endif()
+endforeach()
+file(GLOB_RECURSE installed RELATIVE ${prefix}/include ${prefix}/include/*)
+set(leaked "")
+foreach(header IN LISTS installed)
+  get_filename_component(name "${header}" NAME)
+  if(header MATCHES "(^|/)internal/" OR name IN_LIST internal_names)
+    list(APPEND leaked "${header}")
+  endif()
+endforeach()
+if(leaked)
+  message(FATAL_ERROR "internal headers installed: ${leaked}")
+endif()
+list(LENGTH installed installed_count)
+list(LENGTH internal_names internal_count)
+message(STATUS "${installed_count} headers installed, none of the ${internal_count} internal ones")
+find_program(ccache ccache)
+set(launcher "")
+if(ccache)
+  set(launcher -DCMAKE_CXX_COMPILER_LAUNCHER=${ccache})
+endif()
 run(configure ${CMAKE_COMMAND} -S ${PROJECT_DIR} -B ${WORK_DIR}/build -G ${GENERATOR}
-    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
-run(build ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
+    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release ${launcher})
+string(REGEX MATCH "compiling [0-9]+ installed headers" compiled "${last_output}")
+message(STATUS "${compiled}")
+run(build ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j 2)
 run(run ${WORK_DIR}/build/downstream)
 
 set(expected "pair: group 2 member 5, 4x2 bayer RG 12-bit (owning)\nconfig round trip: identical\ntauunit: closed port gives ConnectionError for HELLO naming the endpoint\n")

@@ -1,0 +1,2 @@
+// Planted violation: common knows config.
+#include <avatar/config/AvatarConfig.h>
