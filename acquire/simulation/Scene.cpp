@@ -31,16 +31,7 @@ std::string_view toString(Shape shape) {
 namespace {
 
 using text::formatDouble;
-
-template <typename V>
-std::string formatVector(const V& v, int n) {
-    std::string out;
-    for (int i = 0; i < n; ++i) {
-        if (i) out += ' ';
-        out += formatDouble(v[i]);
-    }
-    return out;
-}
+using text::formatDoubles;
 
 /// Where a value came from, for error messages.
 struct Context {
@@ -57,7 +48,7 @@ struct Context {
 
 void checkFinite(const Context& c, const char* attr, const cv::Vec3d& v) {
     for (int i = 0; i < 3; ++i)
-        if (!std::isfinite(v[i])) c.fail(attr, "expected finite numbers, got '" + formatVector(v, 3) + "'");
+        if (!std::isfinite(v[i])) c.fail(attr, "expected finite numbers, got '" + formatDoubles(v, 3) + "'");
 }
 
 void checkPositive(const Context& c, const char* attr, double v) {
@@ -74,14 +65,14 @@ void checkRange(const Context& c, const char* attr, double v, double lo, double 
 void checkPositive3(const Context& c, const char* attr, const cv::Vec3d& v) {
     for (int i = 0; i < 3; ++i)
         if (!(v[i] > 0.0) || !std::isfinite(v[i]))
-            c.fail(attr, "expected three numbers > 0, got '" + formatVector(v, 3) + "'");
+            c.fail(attr, "expected three numbers > 0, got '" + formatDoubles(v, 3) + "'");
 }
 
 void checkRgb(const Context& c, const char* attr, const Rgb& v, double hi) {
     for (double x : v)
         if (!(x >= 0.0 && x <= hi))
             c.fail(attr, "expected three numbers in [0, " + formatDouble(hi) + "], got '" +
-                             formatVector(v, 3) + "'");
+                             formatDoubles(v, 3) + "'");
 }
 
 void checkRotation(const Context& c, const char* attr, const RigidTransform& t) {
@@ -535,119 +526,6 @@ void validateScene(const Scene& scene) {
     if (scene.targets.size() + scene.armMarkers.size() > kMaxSceneTargets)
         throw SceneError(src, 0, "/scene", "at most " + std::to_string(kMaxSceneTargets) +
                                                " targets and arm markers");
-}
-
-// ---------------------------------------------------------------- XML writing
-
-namespace {
-
-class Writer {
-public:
-    explicit Writer(std::ostringstream& out) : out_(out) {}
-    Writer& open(const char* tag) {
-        out_ << "  <" << tag;
-        return *this;
-    }
-    Writer& attr(const char* name, const std::string& value) {
-        out_ << ' ' << name << "=\"" << escape(value) << '"';
-        return *this;
-    }
-    Writer& attr(const char* name, double v) { return attr(name, formatDouble(v)); }
-    Writer& attr(const char* name, bool v) { return attr(name, std::string(v ? "true" : "false")); }
-    Writer& attr(const char* name, const cv::Vec3d& v) { return attr(name, formatVector(v, 3)); }
-    Writer& attr(const char* name, const std::array<double, 3>& v) { return attr(name, formatVector(v, 3)); }
-    void close() { out_ << "/>\n"; }
-
-    static std::string escape(const std::string& s) {
-        std::string out;
-        for (char ch : s) {
-            switch (ch) {
-                case '&': out += "&amp;"; break;
-                case '<': out += "&lt;"; break;
-                case '>': out += "&gt;"; break;
-                case '"': out += "&quot;"; break;
-                default: out += ch;
-            }
-        }
-        return out;
-    }
-
-private:
-    std::ostringstream& out_;
-};
-
-}  // namespace
-
-std::string writeSceneString(const Scene& scene) {
-    validateScene(scene);
-    std::ostringstream out;
-    Writer w(out);
-    out << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<scene name=\"" << Writer::escape(scene.name) << "\">\n";
-    const Seabed& s = scene.seabed;
-    w.open("seabed").attr("enabled", s.enabled).attr("distanceMm", s.distanceMm).attr("tiltDeg", s.tiltDeg)
-        .attr("albedo", s.albedo).attr("textureContrast", s.textureContrast)
-        .attr("textureScaleMm", s.textureScaleMm).attr("textureSeed", std::to_string(s.textureSeed)).close();
-    const Lighting& l = scene.lighting;
-    w.open("lighting").attr("ambient", l.ambient).attr("lightIntensity", l.lightIntensity)
-        .attr("lightPositionMm", l.lightPositionMm).attr("inverseSquare", l.inverseSquare)
-        .attr("referenceDistanceMm", l.referenceDistanceMm).attr("darknessFactor", l.darknessFactor).close();
-    out << "  <strobe enabled=\"" << (l.strobe.enabled ? "true" : "false") << "\" centrePx=\""
-        << formatVector(l.strobe.centrePx, 2) << "\">\n";
-    static const char* const channels[3] = {"red", "green", "blue"};
-    for (std::size_t i = 0; i < 3; ++i)
-        out << "    <" << channels[i] << " coefficient=\"" << formatDouble(l.strobe.rgb[i].coefficient)
-            << "\" exponent=\"" << formatDouble(l.strobe.rgb[i].exponent) << "\"/>\n";
-    out << "  </strobe>\n";
-    w.open("water").attr("attenuationPerM", l.attenuationPerM).attr("background", l.background).close();
-    const SensorNoise& n = scene.sensor;
-    w.open("sensor").attr("exposure", n.exposure).attr("readNoiseDn", n.readNoiseDn)
-        .attr("shotNoise", n.shotNoise).attr("fullWellElectrons", n.fullWellElectrons)
-        .attr("blackLevelDn", n.blackLevelDn).close();
-    if (scene.baseTVision) {
-        const auto& r = scene.baseTVision->rotation;
-        std::string rotation;
-        for (double x : r) rotation += (rotation.empty() ? "" : " ") + formatDouble(x);
-        w.open("registration").attr("rotation", rotation)
-            .attr("translationMm", scene.baseTVision->translationMm).close();
-    }
-    for (const TargetSpec& t : scene.targets) {
-        w.open("target").attr("name", t.name).attr("type", t.type)
-            .attr("shape", std::string(toString(t.shape))).attr("centreMm", t.centreMm);
-        if (t.shape == Shape::Box) w.attr("halfSizeMm", t.halfSizeMm);
-        else w.attr("radiusMm", t.radiusMm);
-        if (t.shape == Shape::Disc) w.attr("normal", t.normal);
-        if (t.shape == Shape::Duck || t.shape == Shape::Box) w.attr("om", t.om);
-        w.attr("albedo", t.albedo);
-        if (t.shape == Shape::Duck) w.attr("beakAlbedo", t.beakAlbedo);
-        w.close();
-    }
-    for (const ArmMarker& a : scene.armMarkers)
-        w.open("armMarker").attr("name", a.name).attr("type", a.type).attr("positionBaseMm", a.positionBaseMm)
-            .attr("omBase", a.omBase).attr("halfSizeMm", a.halfSizeMm).attr("albedo", a.albedo).close();
-    for (const Occluder& o : scene.occluders) {
-        w.open("occluder").attr("name", o.name).attr("shape", std::string(toString(o.shape)))
-            .attr("centreMm", o.centreMm);
-        if (o.shape == Shape::Box) w.attr("halfSizeMm", o.halfSizeMm).attr("om", o.om);
-        else w.attr("radiusMm", o.radiusMm);
-        w.attr("albedo", o.albedo).close();
-    }
-    if (scene.checkerboard) {
-        const Checkerboard& b = *scene.checkerboard;
-        w.open("checkerboard").attr("squaresX", std::to_string(b.squaresX))
-            .attr("squaresY", std::to_string(b.squaresY)).attr("squareMm", b.squareMm)
-            .attr("marginSquares", b.marginSquares)
-            .attr("om", b.om).attr("positionMm", b.positionMm).attr("dark", b.dark).attr("light", b.light)
-            .close();
-    }
-    out << "</scene>\n";
-    return out.str();
-}
-
-void writeSceneFile(const Scene& scene, const std::filesystem::path& path) {
-    const std::string text = writeSceneString(scene);
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    if (!out || !(out << text) || !out.flush())
-        throw IoError("cannot write scene file '" + path.string() + "'");
 }
 
 }  // namespace avatar::render

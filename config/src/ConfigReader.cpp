@@ -1,3 +1,6 @@
+// Over 600 lines on purpose: the generic element reader (line numbers, unknown
+// and repeated elements) and one function per element of the schema in
+// docs/config.md, top down, so the whole schema is read in one place.
 #include "ConfigReader.h"
 
 #include "ConfigText.h"

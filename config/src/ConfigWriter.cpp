@@ -34,11 +34,7 @@ public:
 
     template <std::size_t N>
     void vector(const char* name, const std::array<double, N>& values) {
-        std::string joined;
-        for (std::size_t i = 0; i < N; ++i) {
-            joined += (i == 0 ? "" : " ") + formatDouble(values[i]);
-        }
-        text(name, joined);
+        text(name, text::formatDoubles(values, N));
     }
 
     void range(const char* name, const Range& r) {
