@@ -1,15 +1,17 @@
 #include "CraftedFeature.h"
 #include "SampleConfigs.h"
 
-#include <avatar/common/CameraModel.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
-#include <avatar/common/StereoCoordinateCalculator.h>
+#include <avatar/common/CameraModel.h>
 #include <avatar/common/Error.h>
+#include <avatar/common/StereoCoordinateCalculator.h>
+#include <avatar/config/ConfigXml.h>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <numeric>
 #include <ostream>
@@ -933,6 +935,46 @@ TEST(SIPFeatureMatcher, RejectsUnusableConfigurations) {
     bad.right.fc[1] = 0.0;
     EXPECT_THROW((void)SIPFeatureMatcher(MatchConfig{}, bad), InvalidArgument);
     EXPECT_NO_THROW((void)SIPFeatureMatcher(MatchConfig{}, s));
+}
+
+// The matcher takes the validator's word: what a whole configuration is
+// rejected for in its match and stereo parts, the matcher refuses with the
+// same message, and a configuration that validates builds a matcher. The
+// empty box and the empty depth range were once accepted by one and not the
+// other.
+TEST(SIPFeatureMatcher, RefusesExactlyWhatTheConfigurationValidatorRejects) {
+    AvatarConfig valid = test::scorpionSample();
+    ASSERT_NO_THROW(validateConfig(valid));
+    EXPECT_NO_THROW((void)SIPFeatureMatcher(valid.match, valid.stereo));
+    const std::vector<std::function<void(AvatarConfig&)>> changes = {
+        [](AvatarConfig& c) { c.match.boxDxMax = c.match.boxDxMin; },
+        [](AvatarConfig& c) { c.match.boxDyMin = c.match.boxDyMax + 1; },
+        [](AvatarConfig& c) { c.match.maxRangeMm = c.match.minRangeMm; },
+        [](AvatarConfig& c) { c.match.maxEpipolarDistancePx = 0.0; },
+        [](AvatarConfig& c) { c.match.shape.maxError = 0.0; },
+        [](AvatarConfig& c) { c.match.shape.magnitudeWeight = -1.0; },
+        [](AvatarConfig& c) { c.stereo.right.fc[1] = 0.0; },
+        [](AvatarConfig& c) { c.stereo.translationMm = {0.0, 0.0, 0.0}; },
+        [](AvatarConfig& c) { c.stereo.om[2] = std::nan(""); },
+    };
+    for (std::size_t i = 0; i < changes.size(); ++i) {
+        SCOPED_TRACE("change " + std::to_string(i));
+        AvatarConfig c = valid;
+        changes[i](c);
+        std::string validator, matcher;
+        try {
+            validateConfig(c);
+        } catch (const ConfigError& e) {
+            validator = e.what();
+        }
+        try {
+            (void)SIPFeatureMatcher(c.match, c.stereo);
+        } catch (const ConfigError& e) {
+            matcher = e.what();
+        }
+        EXPECT_FALSE(validator.empty());
+        EXPECT_EQ(matcher, validator);
+    }
 }
 
 }  // namespace

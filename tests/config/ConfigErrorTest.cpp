@@ -370,12 +370,19 @@ const std::vector<BadConfig> kBadConfigs = {
      "<memory>:0: /avatar/match/method: is not a MatchMethod value (7)"},
     {"box reversed", [](AvatarConfig& c) { c.match.boxDxMax = -20; },
      "<memory>:0: /avatar/match/box/dx: min -12.5 is above max -20"},
+    // The box is open (dxMin < dx < dxMax): equal limits admit no pair at all.
+    {"box dx empty", [](AvatarConfig& c) { c.match.boxDxMax = c.match.boxDxMin; },
+     "<memory>:0: /avatar/match/box/dx: min -12.5 equals max; the range must not be empty"},
+    {"box dy empty", [](AvatarConfig& c) { c.match.boxDyMin = c.match.boxDyMax; },
+     "<memory>:0: /avatar/match/box/dy: min 7.875 equals max; the range must not be empty"},
     {"epipolar distance zero", [](AvatarConfig& c) { c.match.maxEpipolarDistancePx = 0; },
      "<memory>:0: /avatar/match/epipolarLine/maxDistancePx: must be > 0, got 0"},
     {"range from zero", [](AvatarConfig& c) { c.match.minRangeMm = 0; },
      "<memory>:0: /avatar/match/epipolarLine/rangeMm/min: must be > 0, got 0"},
     {"range reversed", [](AvatarConfig& c) { c.match.maxRangeMm = 100; },
      "<memory>:0: /avatar/match/epipolarLine/rangeMm: min 350 is above max 100"},
+    {"range empty", [](AvatarConfig& c) { c.match.maxRangeMm = c.match.minRangeMm; },
+     "<memory>:0: /avatar/match/epipolarLine/rangeMm: min 350 equals max; the range must not be empty"},
     {"no shape weight", [](AvatarConfig& c) { c.match.shape.magnitudeWeight = c.match.shape.directionWeight = 0; },
      "<memory>:0: /avatar/match/shape: magnitudeWeight and directionWeight must not both be 0"},
     {"area ratio limit below 1", [](AvatarConfig& c) { c.match.shape.maxAreaRatio = 0.5; },
@@ -439,6 +446,49 @@ TEST_P(BadConfigTest, IsRejectedWithItsMessage) {
         ADD_FAILURE() << "written";
     } catch (const ConfigError& e) {
         EXPECT_EQ(std::string(e.what()), GetParam().expected);
+    }
+}
+
+// The checks of one part that the algorithms call (the matcher, the lighting
+// corrector, the colour filter, the analysis) are the validator's own: each
+// rejects what validateConfig rejects in its part, with the same message
+// (a target type is named by its name instead of its index). The image-size
+// rules (principal point, search window) need the camera and are left to
+// validateConfig.
+TEST_P(BadConfigTest, ThePartsCheckGivesTheSameMessage) {
+    AvatarConfig c = test::unusualConfig();
+    GetParam().apply(c);
+    const std::string& expected = GetParam().expected;
+    const auto messageOf = [](auto check) -> std::string {
+        try {
+            check();
+        } catch (const ConfigError& e) {
+            return e.what();
+        }
+        return "accepted";
+    };
+    const auto startsWith = [&](const char* prefix) { return expected.rfind(prefix, 0) == 0; };
+    if (expected.find("/cc: ") != std::string::npos || expected.find("/window") != std::string::npos) {
+        GTEST_SKIP() << "needs the image size";
+    } else if (startsWith("<memory>:0: /avatar/match")) {
+        EXPECT_EQ(messageOf([&] { validateMatchConfig(c.match); }), expected);
+    } else if (startsWith("<memory>:0: /avatar/stereo")) {
+        EXPECT_EQ(messageOf([&] { validateStereoConfig(c.stereo); }), expected);
+    } else if (startsWith("<memory>:0: /avatar/lighting")) {
+        EXPECT_EQ(messageOf([&] { validateLightingConfig(c.lighting); }), expected);
+    } else if (startsWith("<memory>:0: /avatar/analysis")) {
+        EXPECT_EQ(messageOf([&] { validateAnalysisConfig(c.analysis); }), expected);
+    } else if (startsWith("<memory>:0: /avatar/targets/target[")) {
+        const std::size_t open = expected.find('[') + 1;
+        const std::size_t index = std::stoul(expected.substr(open)) - 1;
+        if (index >= c.targets.targets.size() || expected.find("duplicate") != std::string::npos)
+            GTEST_SKIP() << "a rule of the target list, not of one type";
+        const TargetType& type = c.targets.targets[index];
+        const std::string byName = expected.substr(0, open) + "@name='" + type.name + "'" +
+                                   expected.substr(expected.find(']', open));
+        EXPECT_EQ(messageOf([&] { validateTargetType(type); }), byName);
+    } else {
+        GTEST_SKIP() << "no part check for this section";
     }
 }
 

@@ -51,6 +51,25 @@ std::string errorOf(const std::function<void()>& f) {
     return "no error";
 }
 
+TEST(Protocol, HelloVersionIsReadBeforeTheRestOfTheHello) {
+    EXPECT_EQ(helloVersion(encode(Hello{1, "arm"})), std::optional<std::uint16_t>(1));
+    // Another version's HELLO may have any layout after its version.
+    EXPECT_EQ(helloVersion(Bytes{0x01, 0x02, 0xFF}), std::optional<std::uint16_t>(0x0102));
+    EXPECT_EQ(helloVersion(Bytes{0x00}), std::nullopt);
+    EXPECT_EQ(helloVersion(Bytes{}), std::nullopt);
+}
+
+TEST(Protocol, EncodedSizeOfImagesIsTheSizeOfTheirEncoding) {
+    ImagesReply reply;
+    EXPECT_EQ(encodedSize(reply), encode(reply).size());
+    reply.iteration = 7;
+    reply.images.push_back({0, 640, 480, Bytes(1234, 0xAB)});
+    EXPECT_EQ(encodedSize(reply), encode(reply).size());
+    reply.images.push_back({1, 640, 480, Bytes(17, 0x01)});
+    EXPECT_EQ(encodedSize(reply), encode(reply).size());
+    EXPECT_EQ(encodedSize(reply), 10u + 2 * 13u + 1234u + 17u);
+}
+
 }  // namespace
 
 TEST(Protocol, StatusRequestIsTheDocumentedTwelveBytes) {

@@ -143,6 +143,62 @@ TEST(VisionInterface, AnalysisThatCannotBeBuiltIsRejectedWhole) {
     EXPECT_EQ(vision.status().configVersion, 1u);
 }
 
+// A sent configuration that validates but cannot be applied is a rejected
+// configuration, typed as such, naming the part that refused it.
+TEST(VisionInterface, SentConfigurationsThatCannotBeAppliedAreConfigErrors) {
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
+    AvatarConfig order = test::sphereSceneConfig();
+    order.analysis.stages = {"demosaic", "match"};
+    try {
+        vision.applyConfig(writeConfigString(order));
+        ADD_FAILURE() << "applied";
+    } catch (const ConfigError& e) {
+        EXPECT_EQ(e.source(), "sent configuration");
+        EXPECT_EQ(e.elementPath(), "/avatar/analysis");
+        EXPECT_EQ(e.problem(), "cannot be applied: analysis stage 'match' needs 'locate_features' before it");
+    }
+    AvatarConfig lamp = test::sphereSceneConfig();
+    lamp.lighting.patternEnabled = true;
+    lamp.lighting.templateImagePath = "/nonexistent/strobe-template.tif";
+    try {
+        vision.applyConfig(writeConfigString(lamp));
+        ADD_FAILURE() << "applied";
+    } catch (const ConfigError& e) {
+        EXPECT_EQ(e.elementPath(), "/avatar/analysis");
+        EXPECT_NE(e.problem().find("/nonexistent/strobe-template.tif"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(vision.config(), test::sphereSceneConfig());
+    EXPECT_EQ(vision.status().configVersion, 1u);
+    // The interface is still whole: it analyses with the old configuration.
+    EXPECT_EQ(vision.snapshot().ofType("sample").size(), 1u);
+}
+
+TEST(VisionInterface, FailuresAreTypedByKind) {
+    // A timed-out snapshot is TimedOut: nothing can be acquired in 0 ms.
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig());
+    EXPECT_THROW(vision.snapshot(std::chrono::milliseconds(0)), TimedOut);
+    // Searching on a source that has no more pairs is InvalidState.
+    const auto dir = std::filesystem::temp_directory_path() / ("avatar-vision-typed-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    {
+        VisionOptions options;
+        options.recordDirectory = dir;
+        VisionInterface recorder(test::sphereSimulation(), test::sphereSceneConfig(), options);
+        recorder.snapshot();
+        ASSERT_TRUE(eventually([&] { return recorder.status().recorded == 1; }));
+    }
+    VisionInterface replay(std::make_unique<RawDataAcquire>(dir), test::sphereSceneConfig());
+    replay.snapshot();
+    EXPECT_THROW(replay.snapshot(), AcquisitionError);  // the recording is over
+    try {
+        replay.startSearching();
+        ADD_FAILURE() << "searching";
+    } catch (const InvalidState& e) {
+        EXPECT_NE(std::string(e.what()).find("has no more pairs"), std::string::npos) << e.what();
+    }
+    std::filesystem::remove_all(dir);
+}
+
 TEST(VisionInterface, RecordsEveryPairAndReplaysItBitForBit) {
     const auto dir = std::filesystem::temp_directory_path() /
                      ("avatar-vision-record-" + std::to_string(::getpid()));
