@@ -8,6 +8,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 namespace avatar {
 namespace {
@@ -186,7 +187,9 @@ public:
     void number(const std::string& field, double a, double b) {
         if (!sameBits(a, b)) out.push_back({field, avatar::text(a), avatar::text(b)});
     }
-    void point(const std::string& field, const std::optional<cv::Point3d>& a, const std::optional<cv::Point3d>& b) {
+    /// A 2-D or 3-D point, coordinate by coordinate.
+    template <typename Point>
+    void point(const std::string& field, const std::optional<Point>& a, const std::optional<Point>& b) {
         if (a.has_value() != b.has_value()) {
             out.push_back({field, avatar::text(a), avatar::text(b)});
             return;
@@ -194,16 +197,7 @@ public:
         if (!a) return;
         number(field + ".x", a->x, b->x);
         number(field + ".y", a->y, b->y);
-        number(field + ".z", a->z, b->z);
-    }
-    void point(const std::string& field, const std::optional<cv::Point2d>& a, const std::optional<cv::Point2d>& b) {
-        if (a.has_value() != b.has_value()) {
-            out.push_back({field, avatar::text(a), avatar::text(b)});
-            return;
-        }
-        if (!a) return;
-        number(field + ".x", a->x, b->x);
-        number(field + ".y", a->y, b->y);
+        if constexpr (std::is_same_v<Point, cv::Point3d>) number(field + ".z", a->z, b->z);
     }
 };
 
