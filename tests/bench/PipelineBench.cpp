@@ -107,9 +107,17 @@ LightingConfig benchLighting(cv::Size size) {
     return l;
 }
 
-/// data/config/scorpion.xml at @p size with lighting correction on.
+/// data/config/scorpion.xml at @p size with lighting correction on: the
+/// cameras' focal lengths and principal points scaled from 1280x960 to the
+/// size, so the configuration is one the validator accepts at every size.
 AvatarConfig benchConfig(cv::Size size) {
     AvatarConfig c = readConfigFile(std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml");
+    const double sx = size.width / static_cast<double>(c.camera.width);
+    const double sy = size.height / static_cast<double>(c.camera.height);
+    for (CameraIntrinsics* camera : {&c.stereo.left, &c.stereo.right}) {
+        camera->fc = {camera->fc[0] * sx, camera->fc[1] * sy};
+        camera->cc = {camera->cc[0] * sx, camera->cc[1] * sy};
+    }
     c.camera.width = size.width;
     c.camera.height = size.height;
     c.lighting = benchLighting(size);
