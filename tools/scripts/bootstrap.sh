@@ -21,7 +21,7 @@ jobs=${JOBS:-$(nproc)}
 # Debian packages the build, the tests and the demo need.
 packages=(
   build-essential cmake ninja-build pkg-config ccache
-  libopencv-dev libdc1394-dev libtinyxml2-dev
+  libopencv-dev libdc1394-dev libtinyxml2-dev nlohmann-json3-dev libyaml-cpp-dev
   libboost-dev libboost-program-options-dev liblog4cpp5-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev
