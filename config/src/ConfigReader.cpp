@@ -505,8 +505,28 @@ RigidTransform readTransform(Reader& r, const XMLElement* el, const std::string&
     return RigidTransform{s.get("rotation", readVector9), s.get("translationMm", readVector3)};
 }
 
+IntrinsicsUncertainty readIntrinsicsUncertainty(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"fc", "cc", "alphaC", "kc"});
+    IntrinsicsUncertainty u;
+    u.fc = s.get("fc", readVector2);
+    u.cc = s.get("cc", readVector2);
+    s.getOptional("alphaC", u.alphaC, readDouble);
+    s.getOptional("kc", u.kc, readVector5);
+    return u;
+}
+
+CalibrationUncertainty readUncertainty(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"left", "right", "om", "translationMm"});
+    CalibrationUncertainty u;
+    u.left = s.get("left", readIntrinsicsUncertainty);
+    u.right = s.get("right", readIntrinsicsUncertainty);
+    u.om = s.get("om", readVector3);
+    u.translationMm = s.get("translationMm", readVector3);
+    return u;
+}
+
 StereoSystemConfig readStereo(Reader& r, const XMLElement* el, const std::string& path) {
-    const Section s(r, el, path, {"left", "right", "om", "translationMm", "baseTVision"});
+    const Section s(r, el, path, {"left", "right", "om", "translationMm", "baseTVision", "uncertainty"});
     StereoSystemConfig st;
     st.left = s.get("left", readIntrinsics);
     st.right = s.get("right", readIntrinsics);
@@ -514,6 +534,9 @@ StereoSystemConfig readStereo(Reader& r, const XMLElement* el, const std::string
     st.translationMm = s.get("translationMm", readVector3);
     if (s.has("baseTVision")) {
         st.baseTVision = s.get("baseTVision", readTransform);
+    }
+    if (s.has("uncertainty")) {
+        st.uncertainty = s.get("uncertainty", readUncertainty);
     }
     return st;
 }

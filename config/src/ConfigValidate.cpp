@@ -321,6 +321,23 @@ void validateStereo(const Checker& k, const StereoSystemConfig& s) {
         validateRotation(k, s.baseTVision->rotation, p + "/baseTVision/rotation");
         k.allFinite(s.baseTVision->translationMm, p + "/baseTVision/translationMm");
     }
+    if (s.uncertainty) {
+        // Standard errors: finite and not negative.
+        const std::string u = p + "/uncertainty";
+        const auto nonNegative = [&](const auto& values, const std::string& path) {
+            for (std::size_t i = 0; i < values.size(); ++i)
+                k.between(values[i], 0.0, kInf, path, Checker::component(i));
+        };
+        for (const auto& [name, in] : {std::pair<const char*, const IntrinsicsUncertainty&>{"/left", s.uncertainty->left},
+                                       {"/right", s.uncertainty->right}}) {
+            nonNegative(in.fc, u + name + "/fc");
+            nonNegative(in.cc, u + name + "/cc");
+            k.between(in.alphaC, 0.0, kInf, u + name + "/alphaC");
+            nonNegative(in.kc, u + name + "/kc");
+        }
+        nonNegative(s.uncertainty->om, u + "/om");
+        nonNegative(s.uncertainty->translationMm, u + "/translationMm");
+    }
 }
 
 void validateFalloff(const Checker& k, const FalloffChannel& f, const std::string& p) {

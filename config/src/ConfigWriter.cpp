@@ -154,6 +154,21 @@ void writeStereo(Writer& w, const StereoSystemConfig& s) {
         w.vector("translationMm", s.baseTVision->translationMm);
         w.close();
     }
+    if (s.uncertainty) {
+        w.open("uncertainty");
+        for (const auto& [name, u] : {std::pair<const char*, const IntrinsicsUncertainty&>{"left", s.uncertainty->left},
+                                      {"right", s.uncertainty->right}}) {
+            w.open(name);
+            w.vector("fc", u.fc);
+            w.vector("cc", u.cc);
+            w.number("alphaC", u.alphaC);
+            w.vector("kc", u.kc);
+            w.close();
+        }
+        w.vector("om", s.uncertainty->om);
+        w.vector("translationMm", s.uncertainty->translationMm);
+        w.close();
+    }
     w.close();
 }
 

@@ -395,6 +395,16 @@ const std::vector<BadConfig> kBadConfigs = {
      "<memory>:0: /avatar/stereo/right/cc: component 2 (y, image height 767) must be between 0 and 767, got 800"},
     {"distortion not finite", [](AvatarConfig& c) { c.stereo.right.kc[4] = kNan; },
      "<memory>:0: /avatar/stereo/right/kc: component 5 must be a finite number, got nan"},
+    {"negative standard error", [](AvatarConfig& c) {
+         c.stereo.uncertainty = CalibrationUncertainty{};
+         c.stereo.uncertainty->right.kc[1] = -0.1;
+     },
+     "<memory>:0: /avatar/stereo/uncertainty/right/kc: component 2 must be >= 0, got -0.1"},
+    {"standard error not finite", [](AvatarConfig& c) {
+         c.stereo.uncertainty = CalibrationUncertainty{};
+         c.stereo.uncertainty->translationMm[2] = kNan;
+     },
+     "<memory>:0: /avatar/stereo/uncertainty/translationMm: component 3 must be a finite number, got nan"},
     {"skew not finite", [](AvatarConfig& c) { c.stereo.left.alphaC = -kInf; },
      "<memory>:0: /avatar/stereo/left/alphaC: must be a finite number, got -inf"},
     {"om not finite", [](AvatarConfig& c) { c.stereo.om[1] = kInf; },

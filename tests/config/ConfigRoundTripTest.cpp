@@ -207,6 +207,39 @@ std::vector<Mutation> mutations() {
         c.stereo.baseTVision->rotation = {0, 0, 1, 0, 1, 0, -1, 0, 0};  // 90 degrees about y
     });
     add("stereo.baseTVision unset", [](AvatarConfig& c) { c.stereo.baseTVision.reset(); });
+    // The calibration's standard errors: every field, starting from one set of them.
+    const auto withUncertainty = [](AvatarConfig& c) -> CalibrationUncertainty& {
+        if (!c.stereo.uncertainty) {
+            CalibrationUncertainty u;
+            u.left = {{0.67, 0.68}, {1.13, 1.18}, 0.0, {0.0021, 0.011, 0.0003, 0.0002, 0.0}};
+            u.right = {{0.67, 0.69}, {1.22, 1.16}, 0.0, {0.0022, 0.012, 0.0003, 0.0003, 0.0}};
+            u.om = {0.001, 0.001, 0.0004};
+            u.translationMm = {0.08, 0.07, 0.29};
+            c.stereo.uncertainty = u;
+        }
+        return *c.stereo.uncertainty;
+    };
+    add("stereo.uncertainty", [withUncertainty](AvatarConfig& c) { withUncertainty(c); });
+    for (const auto& [side, member] : {std::pair{"left", &CalibrationUncertainty::left},
+                                       std::pair{"right", &CalibrationUncertainty::right}}) {
+        for (std::size_t i = 0; i < 2; ++i) {
+            add(std::string("stereo.uncertainty.") + side + ".fc[" + std::to_string(i) + "]",
+                [=, member = member](AvatarConfig& c) { (withUncertainty(c).*member).fc[i] = 2.5; });
+            add(std::string("stereo.uncertainty.") + side + ".cc[" + std::to_string(i) + "]",
+                [=, member = member](AvatarConfig& c) { (withUncertainty(c).*member).cc[i] = 3.5; });
+        }
+        add(std::string("stereo.uncertainty.") + side + ".alphaC",
+            [=, member = member](AvatarConfig& c) { (withUncertainty(c).*member).alphaC = 1e-4; });
+        for (std::size_t i = 0; i < 5; ++i)
+            add(std::string("stereo.uncertainty.") + side + ".kc[" + std::to_string(i) + "]",
+                [=, member = member](AvatarConfig& c) { (withUncertainty(c).*member).kc[i] = 0.25; });
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+        add("stereo.uncertainty.om[" + std::to_string(i) + "]",
+            [=](AvatarConfig& c) { withUncertainty(c).om[i] = 0.125; });
+        add("stereo.uncertainty.translationMm[" + std::to_string(i) + "]",
+            [=](AvatarConfig& c) { withUncertainty(c).translationMm[i] = 1.5; });
+    }
 
     add("lighting.frameAverageEnabled", [](AvatarConfig& c) { c.lighting.frameAverageEnabled = false; });
     for (std::size_t i = 0; i < 3; ++i) {

@@ -14,6 +14,29 @@
 
 namespace avatar {
 
+/// Standard errors of one camera's intrinsics, in the units of the parameters.
+struct IntrinsicsUncertainty {
+    std::array<double, 2> fc{0, 0};
+    std::array<double, 2> cc{0, 0};
+    double alphaC{0.0};
+    std::array<double, 5> kc{0, 0, 0, 0, 0};
+    bool operator==(const IntrinsicsUncertainty& o) const {
+        return fc == o.fc && cc == o.cc && alphaC == o.alphaC && kc == o.kc;
+    }
+};
+
+/// Standard errors of a stereo calibration (the +/- of thesis Tables 6-1 and
+/// 6-4), as avatar-calibrate estimates them, for later stages to propagate.
+struct CalibrationUncertainty {
+    IntrinsicsUncertainty left;
+    IntrinsicsUncertainty right;
+    std::array<double, 3> om{0, 0, 0};             ///< rad
+    std::array<double, 3> translationMm{0, 0, 0};  ///< mm
+    bool operator==(const CalibrationUncertainty& o) const {
+        return left == o.left && right == o.right && om == o.om && translationMm == o.translationMm;
+    }
+};
+
 struct StereoSystemConfig {
     CameraIntrinsics left;
     CameraIntrinsics right;
@@ -24,10 +47,12 @@ struct StereoSystemConfig {
     /// base_T_vision: the camera-manipulator registration (thesis 3.1.2),
     /// mapping left-camera (vision) coordinates to the manipulator base frame.
     std::optional<RigidTransform> baseTVision;
+    /// The calibration's standard errors, when it was estimated with them.
+    std::optional<CalibrationUncertainty> uncertainty;
 
     bool operator==(const StereoSystemConfig& o) const {
-        return left == o.left && right == o.right && om == o.om &&
-               translationMm == o.translationMm && baseTVision == o.baseTVision;
+        return left == o.left && right == o.right && om == o.om && translationMm == o.translationMm &&
+               baseTVision == o.baseTVision && uncertainty == o.uncertainty;
     }
 };
 
