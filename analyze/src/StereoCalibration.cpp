@@ -481,10 +481,17 @@ StereoCalibration calibrateStereo(const std::vector<CalibrationPair>& pairs, con
     for (int i = 0; i < ml.perView.rows; ++i) out.left.perViewRmsPx.push_back(ml.perView.at<double>(i));
     for (int i = 0; i < mr.perView.rows; ++i) out.right.perViewRmsPx.push_back(mr.perView.at<double>(i));
     out.rmsPx = s.rms;
+    double sumLeft = 0.0, sumRight = 0.0;
     for (int i = 0; i < s.perView.rows; ++i) {
         const double a = s.perView.at<double>(i, 0), b = s.perView.at<double>(i, 1);
         out.perPairRmsPx.push_back(std::sqrt(0.5 * (a * a + b * b)));
+        out.perPairLeftRmsPx.push_back(a);
+        out.perPairRightRmsPx.push_back(b);
+        sumLeft += a * a;
+        sumRight += b * b;
     }
+    out.leftRmsPx = std::sqrt(sumLeft / std::max(1, s.perView.rows));
+    out.rightRmsPx = std::sqrt(sumRight / std::max(1, s.perView.rows));
     out.stereo = configOf(s);
 
     // Standard errors: of om and T from the joint problem; of the intrinsics

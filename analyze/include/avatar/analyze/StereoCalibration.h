@@ -78,7 +78,11 @@ struct StereoCalibration {
     CameraCalibration left;
     CameraCalibration right;
     double rmsPx{0.0};              ///< stereo reprojection RMS over both cameras
-    std::vector<double> perPairRmsPx;
+    double leftRmsPx{0.0};          ///< of the stereo solution, left corners only
+    double rightRmsPx{0.0};         ///< and right corners only
+    std::vector<double> perPairRmsPx;  ///< both cameras, per pair
+    std::vector<double> perPairLeftRmsPx;
+    std::vector<double> perPairRightRmsPx;
     double epipolarRmsPx{0.0};      ///< distance of each corner to its epipolar line, both ways, undistorted
     StereoStrategy strategy{StereoStrategy::RefineAll};  ///< the one used
     /// The held-back comparison (when it was made): RMS of the other camera's
