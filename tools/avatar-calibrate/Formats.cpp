@@ -227,7 +227,7 @@ std::vector<double> numbersIn(const std::string& text) {
 BouguetText readBouguet(const std::string& file) {
     std::ifstream in(file);
     if (!in) throw IoError("cannot read Bouguet calibration file '" + file + "'");
-    static const std::regex line(R"(^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*\[([^\]]*)\]\s*(?:(?:\+/-|\xC2\xB1)\s*\[([^\]]*)\])?)");
+    static const std::regex line(R"(\b([A-Za-z_][A-Za-z0-9_]*)\s*=\s*\[([^\]]*)\]\s*(?:(?:\+/-|\xC2\xB1)\s*\[([^\]]*)\])?)");
     BouguetText out;
     for (std::string text; std::getline(in, text);) {
         std::smatch m;
