@@ -305,6 +305,33 @@ TEST(AvatarCalibrate, DiagnosesAPairWithItsEssentialAndFundamentalMatrices) {
     }
 }
 
+// Real photographs: OpenCV's sample stereo pairs (Debian's opencv-doc, which
+// the set-up script installs): 13 pairs of 640x480 JPEG, a 9 x 6 board. Their
+// true calibration is not known; what is: every board is found, the
+// residuals are those of a good real calibration (OpenCV's own stereo_calib
+// sample reports about 0.4 px on them), and the cameras are the ~536 px,
+// ~3.3-square-baseline pair OpenCV documents.
+TEST(AvatarCalibrate, CalibratesRealPhotographs) {
+    const fs::path data = "/usr/share/doc/opencv-doc/examples/data";
+    ASSERT_TRUE(fs::exists(data / "left01.jpg")) << "install Debian's opencv-doc (tools/scripts/bootstrap.sh does)";
+    test::TempDir work;
+    const ToolRun r = calibrate(work.path(), "--board 9x6 --square-mm 25 --left " + q(data / "left[0-9]*.jpg") +
+                                                 " --right " + q(data / "right[0-9]*.jpg") + " --out " +
+                                                 (work / "real.xml").string() + " --report " + (work / "real.json").string());
+    ASSERT_EQ(r.status, 0) << r.out << r.err;
+    const nlohmann::json j = nlohmann::json::parse(slurp(work / "real.json"));
+    EXPECT_EQ(j["pairs_used"], 13);
+    EXPECT_TRUE(j["pairs_skipped"].empty());
+    EXPECT_LT(j["rms_px"].get<double>(), 0.6);
+    EXPECT_LT(j["epipolar_rms_px"].get<double>(), 0.4);
+    for (const char* side : {"left", "right"}) {
+        EXPECT_NEAR(j[side]["fc"][0].get<double>(), 537.0, 8.0) << side;
+        EXPECT_LT(j[side]["fc_std"][0].get<double>(), 2.0) << side;
+        EXPECT_LT(j[side]["cc_std"][0].get<double>(), 2.0) << side;
+    }
+    EXPECT_NEAR(j["T"][0].get<double>() / 25.0, -3.34, 0.05);  // the baseline in squares
+}
+
 TEST(AvatarCalibrate, UsageAndInputErrorsAreNamed) {
     test::TempDir work;
     ToolRun r = calibrate(work.path(), "--board 9 --square-mm 25 --left 'x*' --right 'y*' --out a.xml");

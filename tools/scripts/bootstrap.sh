@@ -27,6 +27,7 @@ packages=(
   libaravis-dev aravis-tools libusb-1.0-0-dev
   clang libclang-rt-14-dev
   tmux
+  opencv-doc        # real stereo checkerboard photographs for the calibration tests
 )
 
 missing=()
