@@ -6,6 +6,7 @@
 #include "SampleConfigs.h"
 #include "TempDir.h"
 
+#include <avatar/acquire/SessionLog.h>
 #include <avatar/common/CameraModel.h>
 #include <avatar/common/ImageUtils.h>
 #include <avatar/common/StereoImagePairFileIO.h>
@@ -23,6 +24,7 @@
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace avatar {
 namespace {
@@ -61,12 +63,32 @@ StereoSystemConfig truthRig() {
 }
 
 /// 12 rendered pairs of a 10 x 7 square board (9 x 6 inner corners, 25 mm),
-/// written once per test run as 8-bit PNG (left_NN.png, right_NN.png) and raw
-/// files, plus one pair of the empty seabed (no board), left_99/right_99.
+/// as 8-bit PNG (png/left_NN.png, png/right_NN.png), raw files (raw/) and a
+/// recorded session (session/), plus one pair of the empty seabed (no board),
+/// png/left_99 and right_99; the exact corner projections of pair 3 in
+/// truth03.txt. Rendered once per build tree (about 15 s) into
+/// AVATAR_TEST_CACHE_DIR and shared by the tests, each of which ctest runs in
+/// a process of its own: made under a temporary name and renamed into place,
+/// so concurrent tests never see half of it.
 struct Boards {
-    test::TempDir dir{"avatar-calibrate-test"};
-    std::vector<render::CheckerboardTruth> truths;
+    fs::path dir;
+    std::vector<cv::Point2d> truthLeft3, truthRight3;
     Boards() {
+        dir = fs::path(AVATAR_TEST_CACHE_DIR) / "calibrate-boards-v1";
+        if (!fs::exists(dir / "complete")) render(dir);
+        std::ifstream truth(dir / "truth03.txt");
+        for (double lx, ly, rx, ry; truth >> lx >> ly >> rx >> ry;) {
+            truthLeft3.emplace_back(lx, ly);
+            truthRight3.emplace_back(rx, ry);
+        }
+    }
+
+private:
+    static void render(const fs::path& final) {
+        const fs::path temp = final.string() + ".tmp-" + std::to_string(::getpid());
+        fs::remove_all(temp);
+        fs::create_directories(temp / "png");
+        fs::create_directories(temp / "raw");
         render::CheckerboardSpec spec;
         spec.views = 12;
         spec.seed = 5;
@@ -78,23 +100,46 @@ struct Boards {
         render::RenderOptions options;
         const StereoSystemConfig rig = truthRig();
         const auto scenes = render::makeCheckerboardViews(spec, rig, options.sensor);
-        fs::create_directories(dir.path() / "png");
-        fs::create_directories(dir.path() / "raw");
+        SessionLogWriter session(temp / "session");
+        AvatarConfig recorded = test::scorpionSample();
+        recorded.stereo.left = rig.left;
+        recorded.stereo.right = rig.right;
         for (std::size_t i = 0; i <= scenes.size(); ++i) {
             render::Scene scene;
             if (i < scenes.size()) scene = scenes[i];
             else scene.seabed.distanceMm = 1500.0;  // no board
             options.seed = 40 + i;
             const render::RenderResult r = render::render(scene, rig, options);
-            if (i < scenes.size()) truths.push_back(*r.truth.checkerboard);
             const StereoImagePair bgr = demosaic(r.pair);
             char name[32];
             std::snprintf(name, sizeof name, "%02zu", i < scenes.size() ? i : std::size_t{99});
             for (const Side side : {Side::Left, Side::Right})
-                cv::imwrite((dir.path() / "png" / ((side == Side::Left ? "left_" : "right_") + std::string(name) + ".png")).string(),
+                cv::imwrite((temp / "png" / ((side == Side::Left ? "left_" : "right_") + std::string(name) + ".png")).string(),
                             toDisplay8(bgr.image(side), 16));
-            if (i < scenes.size()) render::writeRender(r, options.sensor, dir.path() / "raw", 1, static_cast<std::uint32_t>(i), false);
+            if (i == scenes.size()) break;
+            render::writeRender(r, options.sensor, temp / "raw", 1, static_cast<std::uint32_t>(i), false);
+            StereoImagePair pair = r.pair;
+            pair.setId({1, static_cast<std::uint32_t>(i), {"sim-left", 0}, {"sim-right", 0}});
+            SessionRecord record;
+            record.iteration = i + 1;
+            record.acquisition = pair.id();
+            record.files = session.writePair(pair, Compression::Png);
+            record.configVersion = 1;
+            if (i == 0) record.configXml = writeConfigString(recorded);
+            session.append(record);
+            if (i == 3) {
+                std::ofstream truth(temp / "truth03.txt");
+                truth.precision(17);
+                const render::CheckerboardTruth& t = *r.truth.checkerboard;
+                for (std::size_t k = 0; k < t.cornersLeftPx.size(); ++k)
+                    truth << t.cornersLeftPx[k].x << " " << t.cornersLeftPx[k].y << " " << t.cornersRightPx[k].x << " "
+                          << t.cornersRightPx[k].y << "\n";
+            }
         }
+        std::ofstream(temp / "complete") << "rendered\n";
+        std::error_code ec;
+        fs::rename(temp, final, ec);  // another test process may have won: then use its copy
+        if (ec) fs::remove_all(temp);
     }
 };
 
@@ -108,8 +153,8 @@ std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 TEST(AvatarCalibrate, CalibratesFromPngPairsWithTheIssuesCommandLine) {
     const Boards& b = boards();
     test::TempDir work;
-    const ToolRun r = calibrate(work.path(), "--board 9x6 --square-mm 25 --left " + q(b.dir.path() / "png" / "left*.png") +
-                                                 " --right " + q(b.dir.path() / "png" / "right*.png") + " --out " +
+    const ToolRun r = calibrate(work.path(), "--board 9x6 --square-mm 25 --left " + q(b.dir / "png" / "left*.png") +
+                                                 " --right " + q(b.dir / "png" / "right*.png") + " --out " +
                                                  (work / "avatar.xml").string() + " --report " +
                                                  (work / "report.json").string());
     ASSERT_EQ(r.status, 0) << r.out << r.err;
@@ -155,8 +200,8 @@ TEST(AvatarCalibrate, CalibratesFromRawBayerFilesIntoAnExistingConfiguration) {
     test::TempDir work;
     AvatarConfig existing = test::scorpionSample();  // 1280x960 16-bit Bayer, with a registration
     writeConfigFile(existing, work / "avatar.xml");
-    const ToolRun r = calibrate(work.path(), "--board 9x6 --square-mm 25 --left " + q(b.dir.path() / "raw" / "L_*.raw") +
-                                                 " --right " + q(b.dir.path() / "raw" / "R_*.raw") + " --out " +
+    const ToolRun r = calibrate(work.path(), "--board 9x6 --square-mm 25 --left " + q(b.dir / "raw" / "L_*.raw") +
+                                                 " --right " + q(b.dir / "raw" / "R_*.raw") + " --out " +
                                                  (work / "avatar.xml").string() + " --report " +
                                                  (work / "report.json").string() + " --strategy refine-all");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
@@ -170,6 +215,22 @@ TEST(AvatarCalibrate, CalibratesFromRawBayerFilesIntoAnExistingConfiguration) {
     EXPECT_FALSE(j["config_created"].get<bool>());
     // 16-bit raw data gives corners at least as good as the 8-bit renditions.
     EXPECT_LT(j["rms_px"].get<double>(), 0.15);
+}
+
+TEST(AvatarCalibrate, CalibratesFromARecordedSession) {
+    const Boards& b = boards();
+    test::TempDir work;
+    writeConfigFile(test::scorpionSample(), work / "avatar.xml");
+    const ToolRun r = calibrate(work.path(), "--board 9x6 --square-mm 25 --session " + (b.dir / "session").string() +
+                                                 " --out " + (work / "avatar.xml").string() + " --report " +
+                                                 (work / "report.json").string());
+    ASSERT_EQ(r.status, 0) << r.out << r.err;
+    const nlohmann::json j = nlohmann::json::parse(slurp(work / "report.json"));
+    EXPECT_EQ(j["pairs_used"], 12);
+    EXPECT_LT(j["rms_px"].get<double>(), 0.15);
+    const StereoSystemConfig truth = truthRig();
+    EXPECT_NEAR(j["left"]["fc"][0].get<double>(), truth.left.fc[0], 4 * j["left"]["fc_std"][0].get<double>());
+    EXPECT_NEAR(j["T"][0].get<double>(), truth.translationMm[0], 4 * j["T_std"][0].get<double>() + 0.05);
 }
 
 TEST(AvatarCalibrate, ExportsAndImportsRoundTrip) {
@@ -281,8 +342,8 @@ TEST(AvatarCalibrate, DiagnosesAPairWithItsEssentialAndFundamentalMatrices) {
     config.stereo.right = truthRig().right;
     writeConfigFile(config, work / "truth.xml");
     const ToolRun r = calibrate(work.path(), "--config " + (work / "truth.xml").string() + " --diagnose " +
-                                                 (b.dir.path() / "png" / "left_03.png").string() + "," +
-                                                 (b.dir.path() / "png" / "right_03.png").string() + " --board 9x6 --out " +
+                                                 (b.dir / "png" / "left_03.png").string() + "," +
+                                                 (b.dir / "png" / "right_03.png").string() + " --board 9x6 --out " +
                                                  (work / "diag").string());
     ASSERT_EQ(r.status, 0) << r.err;
     for (const char* file : {"epipolar.png", "rectified.png"}) {
@@ -296,10 +357,10 @@ TEST(AvatarCalibrate, DiagnosesAPairWithItsEssentialAndFundamentalMatrices) {
     cv::Matx33d f;
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) f(i, j) = m["F"][i][j].get<double>();
-    const render::CheckerboardTruth& t = b.truths[3];
-    for (std::size_t k = 0; k < t.cornersLeftPx.size(); ++k) {
-        const cv::Point2d l = normalizedToPixel(config.stereo.left, *normalizePixelExact(config.stereo.left, t.cornersLeftPx[k]));
-        const cv::Point2d rr = normalizedToPixel(config.stereo.right, *normalizePixelExact(config.stereo.right, t.cornersRightPx[k]));
+    ASSERT_EQ(b.truthLeft3.size(), 54u);
+    for (std::size_t k = 0; k < b.truthLeft3.size(); ++k) {
+        const cv::Point2d l = normalizedToPixel(config.stereo.left, *normalizePixelExact(config.stereo.left, b.truthLeft3[k]));
+        const cv::Point2d rr = normalizedToPixel(config.stereo.right, *normalizePixelExact(config.stereo.right, b.truthRight3[k]));
         const cv::Vec3d line = f * cv::Vec3d(l.x, l.y, 1.0);
         EXPECT_LT(std::abs(cv::Vec3d(rr.x, rr.y, 1.0).dot(line)) / std::hypot(line[0], line[1]), 1e-6) << k;
     }
