@@ -13,9 +13,13 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
-#include <map>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <tuple>
 #include <string>
 #include <vector>
@@ -34,19 +38,39 @@ StereoSystemConfig distortedRig() {
 struct RenderedBoards {
     std::vector<CalibrationPair> pairs;
     std::vector<render::CheckerboardTruth> truths;
-    BoardGeometry board;
+    BoardGeometry board{cv::Size(9, 6), 30.0};  // 10 x 7 squares of 30 mm
     int notFound{0};
 };
 
-/// @p views rendered 1280x960 16-bit Bayer pairs of a 10 x 7 square board of 30 mm.
-const RenderedBoards& boards(int views) {
-    static std::map<int, RenderedBoards> cache;
-    auto [it, fresh] = cache.try_emplace(views);
-    RenderedBoards& out = it->second;
-    if (!fresh) return out;
+template <typename P>
+void writeCorners(std::ostream& out, const std::vector<P>& left, const std::vector<P>& right) {
+    out << left.size() << "\n";
+    for (std::size_t k = 0; k < left.size(); ++k)
+        out << left[k].x << " " << left[k].y << " " << right[k].x << " " << right[k].y << "\n";
+}
+
+template <typename P>
+bool readCorners(std::istream& in, std::vector<P>& left, std::vector<P>& right) {
+    std::size_t n = 0;
+    if (!(in >> n)) return false;
+    left.resize(n);
+    right.resize(n);
+    for (std::size_t k = 0; k < n; ++k)
+        if (!(in >> left[k].x >> left[k].y >> right[k].x >> right[k].y)) return false;
+    return true;
+}
+
+/// 16 rendered 1280x960 16-bit Bayer pairs of a 10 x 7 square board of 30 mm,
+/// demosaiced, with the corners found in each and the exact projections.
+/// Rendering takes about 20 s, and ctest runs each test in a process of its
+/// own, so the first process writes what it found to AVATAR_TEST_CACHE_DIR
+/// (emptied at the start of every ctest run) and the others read it back: a
+/// temporary file renamed into place, so no process reads half of it.
+RenderedBoards renderBoards() {
+    RenderedBoards out;
     const StereoSystemConfig rig = distortedRig();
     render::CheckerboardSpec spec;
-    spec.views = views;
+    spec.views = 16;
     spec.seed = 11;
     spec.squaresX = 10;
     spec.squaresY = 7;
@@ -54,7 +78,6 @@ const RenderedBoards& boards(int views) {
     render::RenderOptions options;
     options.supersampling = 4;
     const auto scenes = render::makeCheckerboardViews(spec, rig, options.sensor);
-    out.board = {cv::Size(9, 6), 30.0};
     for (std::size_t i = 0; i < scenes.size(); ++i) {
         options.seed = 100 + i;
         const render::RenderResult r = render::render(scenes[i], rig, options);
@@ -71,6 +94,50 @@ const RenderedBoards& boards(int views) {
     return out;
 }
 
+/// Read back what writeBoards() wrote; false when the file is absent or short.
+bool readBoards(const std::filesystem::path& file, RenderedBoards& out) {
+    std::ifstream in(file);
+    std::size_t count = 0;
+    if (!(in >> out.notFound >> count)) return false;
+    out.pairs.resize(count);
+    out.truths.resize(count);
+    for (std::size_t i = 0; i < count; ++i)
+        if (!(in >> out.pairs[i].name) || !readCorners(in, out.pairs[i].left, out.pairs[i].right) ||
+            !readCorners(in, out.truths[i].cornersLeftPx, out.truths[i].cornersRightPx))
+            return false;
+    return true;
+}
+
+/// Exactly: 9 significant digits for the float corners, 17 for the double truths.
+void writeBoards(const std::filesystem::path& file, const RenderedBoards& b) {
+    namespace fs = std::filesystem;
+    fs::create_directories(file.parent_path());
+    const fs::path temp = file.string() + ".tmp-" + std::to_string(::getpid());
+    {
+        std::ofstream out(temp);
+        out << b.notFound << " " << b.pairs.size() << "\n";
+        for (std::size_t i = 0; i < b.pairs.size(); ++i) {
+            out << b.pairs[i].name << "\n" << std::setprecision(9);
+            writeCorners(out, b.pairs[i].left, b.pairs[i].right);
+            out << std::setprecision(17);
+            writeCorners(out, b.truths[i].cornersLeftPx, b.truths[i].cornersRightPx);
+        }
+    }
+    fs::rename(temp, file);
+}
+
+const RenderedBoards& boards() {
+    static const RenderedBoards b = [] {
+        const std::filesystem::path file = std::filesystem::path(AVATAR_TEST_CACHE_DIR) / "boards.txt";
+        RenderedBoards cached;
+        if (readBoards(file, cached)) return cached;
+        RenderedBoards fresh = renderBoards();
+        writeBoards(file, fresh);
+        return fresh;
+    }();
+    return b;
+}
+
 double nearestDistance(const cv::Point2f& p, const std::vector<cv::Point2d>& truth) {
     double best = 1e9;
     for (const auto& t : truth) best = std::min(best, std::hypot(p.x - t.x, p.y - t.y));
@@ -78,7 +145,7 @@ double nearestDistance(const cv::Point2f& p, const std::vector<cv::Point2d>& tru
 }
 
 TEST(StereoCalibration, CornersLieOnTheExactProjections) {
-    const RenderedBoards& b = boards(16);
+    const RenderedBoards& b = boards();
     ASSERT_EQ(b.notFound, 0);
     double sum = 0.0, worst = 0.0;
     int n = 0;
@@ -101,7 +168,7 @@ TEST(StereoCalibration, CornersLieOnTheExactProjections) {
 }
 
 TEST(StereoCalibration, RecoversTheRigWithinItsStatedStandardErrors) {
-    const RenderedBoards& b = boards(16);
+    const RenderedBoards& b = boards();
     const StereoSystemConfig truth = distortedRig();
     const StereoCalibration c = calibrateStereo(b.pairs, b.board, cv::Size(1280, 960));
     ASSERT_TRUE(c.stereo.uncertainty);
@@ -143,7 +210,7 @@ TEST(StereoCalibration, RecoversTheRigWithinItsStatedStandardErrors) {
 }
 
 TEST(StereoCalibration, BothStrategiesAreComparedOnHeldBackPairs) {
-    const RenderedBoards& b = boards(16);
+    const RenderedBoards& b = boards();
     const StereoCalibration c = calibrateStereo(b.pairs, b.board, cv::Size(1280, 960));
     ASSERT_TRUE(c.heldOutFixedPx && c.heldOutRefinedPx);
     EXPECT_EQ(c.heldOutPairs.size(), 4u);
@@ -159,7 +226,7 @@ TEST(StereoCalibration, BothStrategiesAreComparedOnHeldBackPairs) {
 }
 
 TEST(StereoCalibration, RefusesWhatCannotBeCalibrated) {
-    const RenderedBoards& b = boards(16);
+    const RenderedBoards& b = boards();
     const std::vector<CalibrationPair> two(b.pairs.begin(), b.pairs.begin() + 2);
     EXPECT_THROW(calibrateStereo(two, b.board, cv::Size(1280, 960)), InvalidArgument);
     std::vector<CalibrationPair> shortPair(b.pairs.begin(), b.pairs.begin() + 4);

@@ -66,15 +66,16 @@ StereoSystemConfig truthRig() {
 /// as 8-bit PNG (png/left_NN.png, png/right_NN.png), raw files (raw/) and a
 /// recorded session (session/), plus one pair of the empty seabed (no board),
 /// png/left_99 and right_99; the exact corner projections of pair 3 in
-/// truth03.txt. Rendered once per build tree (about 15 s) into
-/// AVATAR_TEST_CACHE_DIR and shared by the tests, each of which ctest runs in
-/// a process of its own: made under a temporary name and renamed into place,
-/// so concurrent tests never see half of it.
+/// truth03.txt. Rendered once per ctest run (about 15 s) into
+/// AVATAR_TEST_CACHE_DIR (emptied by the suite's setup test) and shared by the
+/// tests, each of which ctest runs in a process of its own: made under a
+/// temporary name and renamed into place, so concurrent tests never see half
+/// of it.
 struct Boards {
     fs::path dir;
     std::vector<cv::Point2d> truthLeft3, truthRight3;
     Boards() {
-        dir = fs::path(AVATAR_TEST_CACHE_DIR) / "calibrate-boards-v1";
+        dir = fs::path(AVATAR_TEST_CACHE_DIR) / "boards";
         if (!fs::exists(dir / "complete")) render(dir);
         std::ifstream truth(dir / "truth03.txt");
         for (double lx, ly, rx, ry; truth >> lx >> ly >> rx >> ry;) {
