@@ -35,15 +35,19 @@ void blockRow(const cv::Mat& image, int outY, int channels, std::vector<std::uin
 
 template <typename S>
 std::int64_t countAtLeast(const cv::Mat& image, double threshold) {
-    if (threshold <= 0.0) return static_cast<std::int64_t>(image.total()) * image.channels();
+    if (threshold <= 0.0) return static_cast<std::int64_t>(image.total());
     if (threshold > static_cast<double>(std::numeric_limits<S>::max())) return 0;
     const auto t = static_cast<S>(std::ceil(threshold));
-    const int n = image.cols * image.channels();
+    const int channels = image.channels();
     std::int64_t count = 0;
     for (int y = 0; y < image.rows; ++y) {
         const S* row = image.ptr<S>(y);
-        std::int32_t rowCount = 0;  // n <= 2^31: no overflow
-        for (int i = 0; i < n; ++i) rowCount += row[i] >= t;
+        std::int32_t rowCount = 0;  // cols <= 2^31: no overflow
+        for (int x = 0; x < image.cols; ++x, row += channels) {
+            bool any = false;
+            for (int c = 0; c < channels; ++c) any |= row[c] >= t;
+            rowCount += any;
+        }
         count += rowCount;
     }
     return count;
@@ -68,10 +72,14 @@ void downsampleArea4(const cv::Mat& image, cv::Mat& out) {
     }
 }
 
-std::int64_t countSamplesAtLeast(const cv::Mat& image, double threshold) {
+std::int64_t countPixelsWithAnyAtLeast(const cv::Mat& image, double threshold) {
     if (image.depth() == CV_8U) return countAtLeast<std::uint8_t>(image, threshold);
     if (image.depth() == CV_16U) return countAtLeast<std::uint16_t>(image, threshold);
-    return cv::countNonZero(image.reshape(1) >= threshold);
+    std::vector<cv::Mat> planes;
+    cv::split(image, planes);
+    cv::Mat any = planes[0] >= threshold;
+    for (std::size_t c = 1; c < planes.size(); ++c) any |= planes[c] >= threshold;
+    return cv::countNonZero(any);
 }
 
 }  // namespace avatar::detail

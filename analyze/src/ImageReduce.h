@@ -17,9 +17,9 @@ namespace avatar::detail {
 /// called. @p out is reused when it has the right size and type.
 void downsampleArea4(const cv::Mat& image, cv::Mat& out);
 
-/// The number of samples (every channel of every pixel) >= @p threshold of an
-/// 8- or 16-bit image: cv::countNonZero(image.reshape(1) >= threshold)
-/// without the temporary mask.
-std::int64_t countSamplesAtLeast(const cv::Mat& image, double threshold);
+/// The number of pixels with at least one channel >= @p threshold of an 8-
+/// or 16-bit image of 1..4 channels: the count of non-zero pixels of the
+/// per-channel comparison reduced by "or", without the temporary masks.
+std::int64_t countPixelsWithAnyAtLeast(const cv::Mat& image, double threshold);
 
 }  // namespace avatar::detail

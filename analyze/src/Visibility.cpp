@@ -22,7 +22,7 @@ VisibilityMeasures measureVisibility(const cv::Mat& bgr, int bitDepth) {
     minChannel = cv::min(cv::min(channels[0], channels[1]), channels[2]);
     m.haze = cv::mean(minChannel)[0];
     m.saturatedFraction =
-        static_cast<double>(detail::countSamplesAtLeast(bgr, full)) / static_cast<double>(bgr.total());
+        static_cast<double>(detail::countPixelsWithAnyAtLeast(bgr, full)) / static_cast<double>(bgr.total());
     return m;
 }
 

@@ -50,17 +50,25 @@ TEST(DownsampleArea4, RoundsHalvesToEvenLikeOpenCv) {
     }
 }
 
-TEST(CountSamplesAtLeast, IsCountNonZeroOfTheComparison) {
+TEST(CountPixelsWithAnyAtLeast, CountsPixelsNotSamples) {
     cv::RNG rng(17);
     for (const int type : {CV_8UC3, CV_16UC3, CV_16UC1}) {
         cv::Mat image = randomImage(rng, {97, 31}, type);
         const double full = CV_MAT_DEPTH(type) == CV_8U ? 255.0 : 65535.0;
         image.setTo(cv::Scalar::all(full), randomImage(rng, {97, 31}, CV_8UC1) > 200);
         for (const double t : {0.0, 1.0, 1000.5, full - 1.0, full, full + 1.0}) {
-            const auto expected = cv::countNonZero(image.reshape(1) >= t);
-            EXPECT_EQ(countSamplesAtLeast(image, t), expected) << cv::typeToString(type) << " >= " << t;
+            std::vector<cv::Mat> planes;
+            cv::split(image, planes);
+            cv::Mat any = planes[0] >= t;
+            for (std::size_t c = 1; c < planes.size(); ++c) any |= planes[c] >= t;
+            EXPECT_EQ(countPixelsWithAnyAtLeast(image, t), cv::countNonZero(any)) << cv::typeToString(type) << " >= " << t;
+            EXPECT_LE(countPixelsWithAnyAtLeast(image, t), static_cast<std::int64_t>(image.total()));
         }
     }
+    // A pixel saturated in all three channels counts once: a fully saturated
+    // image is 100 % saturated, not 300 %.
+    const cv::Mat white(8, 8, CV_16UC3, cv::Scalar::all(65535));
+    EXPECT_EQ(countPixelsWithAnyAtLeast(white, 65535), 64);
 }
 
 }  // namespace

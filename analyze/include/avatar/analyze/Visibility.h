@@ -16,7 +16,7 @@ namespace avatar {
 /// The global statistics of one BGR image, each relative to full scale.
 struct VisibilityMeasures {
     double contrast{0.0};           ///< RMS contrast: std(luma) / full scale
-    double saturatedFraction{0.0};  ///< saturated samples (any channel at full scale) / pixels
+    double saturatedFraction{0.0};  ///< pixels with any channel at full scale / pixels, in [0, 1]
     double haze{0.0};               ///< mean of the per-pixel minimum channel / full scale
 };
 
