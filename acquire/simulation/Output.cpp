@@ -42,7 +42,8 @@ std::string escape(const std::string& s) {
 void writeView(std::ostringstream& out, const char* camera, const TargetView& v) {
     out << "    <view camera=\"" << camera << "\" visibility=\"" << toString(v.visibility)
         << "\" occluded=\"" << (v.occluded ? "true" : "false") << "\" atBorder=\""
-        << (v.atBorder ? "true" : "false") << "\" areaPx=\"" << num(v.areaPx) << '"';
+        << (v.atBorder ? "true" : "false") << "\" cut=\"" << (v.cut ? "true" : "false") << "\" areaPx=\""
+        << num(v.areaPx) << "\" potentialAreaPx=\"" << num(v.potentialAreaPx) << '"';
     if (v.projectedCentrePx) out << " projectedCentrePx=\"" << point(*v.projectedCentrePx) << '"';
     if (v.silhouetteCentroidPx) out << " silhouetteCentroidPx=\"" << point(*v.silhouetteCentroidPx) << '"';
     out << "/>\n";

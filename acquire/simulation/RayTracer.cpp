@@ -319,8 +319,8 @@ Sample Tracer::trace(double u, double v, bool shade) const {
     const bool targetFirst = bestTarget && tTarget <= tOther * (1.0 + 1e-9);
     const Prim* hit = targetFirst ? bestTarget : bestOther;
     if (!hit) {
-        for (std::size_t c = 0; c < 3; ++c)
-            s.radiance[c] = w_.lighting.background[c] * w_.lighting.darknessFactor;
+        const Lighting& l = w_.lighting;
+        for (std::size_t c = 0; c < 3; ++c) s.radiance[c] = (l.background[c] + l.backscatter[c]) * l.darknessFactor;
         return s;
     }
     const double t = targetFirst ? tTarget : tOther;
@@ -347,10 +347,12 @@ Rgb Tracer::shadeAt(const cv::Vec3d& x, const cv::Vec3d& n, const Rgb& albedo, d
     const double falloff = l.inverseSquare ? std::pow(l.referenceDistanceMm / lightMm, 2.0) : 1.0;
     Rgb out;
     for (std::size_t c = 0; c < 3; ++c) {
-        const double viewLoss = std::exp(-l.attenuationPerM[c] * viewMm / 1000.0);
-        const double lightLoss = std::exp(-l.attenuationPerM[c] * lightMm / 1000.0);
+        const double k = l.attenuationPerM[c] + l.turbidityPerM;
+        const double viewLoss = std::exp(-k * viewMm / 1000.0);
+        const double lightLoss = std::exp(-k * lightMm / 1000.0);
         out[c] = albedo[c] * l.darknessFactor *
                  (l.ambient[c] + l.lightIntensity[c] * cosine * falloff * lightLoss) * viewLoss;
+        if (l.backscatter[c] != 0.0) out[c] += l.darknessFactor * l.backscatter[c] * (1.0 - viewLoss);
     }
     return out;
 }

@@ -79,6 +79,7 @@ struct TargetAccumulator {
     double sumY{0.0};
     double potential{0.0};
     bool atBorder{false};
+    bool cut{false};  ///< a ray just outside the image passes through it
 };
 
 struct CameraRender {
@@ -164,7 +165,37 @@ CameraRender renderCamera(const World& world, const CameraRig& rig, const Render
         }
     });
 
+    // Cut or only touching: rays through points just outside the outer pixel
+    // edges, every quarter pixel around the image, tell whether a target's
+    // silhouette continues beyond the image.
+    std::vector<std::uint64_t> outside;
+    {
+        const double eps = 1e-3, left = -0.5 - eps, right = width - 0.5 + eps, top = -0.5 - eps,
+                     bottom = height - 0.5 + eps;
+        std::vector<cv::Point2d> points;
+        for (int k = 0; k <= 4 * width; ++k) {
+            const double x = -0.5 + k / 4.0;
+            points.emplace_back(x, top);
+            points.emplace_back(x, bottom);
+        }
+        for (int k = 0; k <= 4 * height; ++k) {
+            const double y = -0.5 + k / 4.0;
+            points.emplace_back(left, y);
+            points.emplace_back(right, y);
+        }
+        outside.assign(points.size(), 0);
+        cv::parallel_for_(cv::Range(0, static_cast<int>(points.size())), [&](const cv::Range& r) {
+            for (int k = r.start; k < r.end; ++k)
+                outside[static_cast<std::size_t>(k)] =
+                    tracer.trace(points[static_cast<std::size_t>(k)].x, points[static_cast<std::size_t>(k)].y, false)
+                        .sig.targets;
+        });
+    }
+    std::uint64_t cutTargets = 0;
+    for (const std::uint64_t m : outside) cutTargets |= m;
+
     out.targets.assign(nTargets, {});
+    for (std::size_t t = 0; t < nTargets; ++t) out.targets[t].cut = (cutTargets >> t) & 1u;
     for (int j = 0; j < height; ++j) {
         for (std::size_t t = 0; t < nTargets; ++t) {
             const TargetAccumulator& r = rowSums[static_cast<std::size_t>(j) * nTargets + t];
@@ -262,11 +293,13 @@ TargetView viewOf(const TargetAccumulator& a, const std::optional<cv::Point2d>& 
     v.projectedCentrePx = projected;
     v.areaPx = a.visible;
     if (a.visible > 0.0) v.silhouetteCentroidPx = cv::Point2d(a.sumX / a.visible, a.sumY / a.visible);
+    v.potentialAreaPx = a.potential;
     v.occluded = a.potential - a.visible > 1e-9 * std::max(1.0, a.potential);
     v.atBorder = a.atBorder;
+    v.cut = a.cut;
     v.visibility = a.visible <= 0.0 ? TargetVisibility::None
-                   : (v.occluded || v.atBorder) ? TargetVisibility::Partial
-                                                : TargetVisibility::Full;
+                   : (v.occluded || v.cut) ? TargetVisibility::Partial
+                                           : TargetVisibility::Full;
     return v;
 }
 

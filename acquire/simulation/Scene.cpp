@@ -118,6 +118,8 @@ void checkStrobe(const Context& c, const Strobe& s) {
 void checkWater(const Context& c, const Lighting& l) {
     checkRgb(c, "attenuationPerM", l.attenuationPerM, 1e3);
     checkRgb(c, "background", l.background, 1e6);
+    checkRgb(c, "backscatter", l.backscatter, 1e6);
+    checkRange(c, "turbidityPerM", l.turbidityPerM, 0.0, 1e3);
 }
 
 void checkSensor(const Context& c, const SensorNoise& s) {
@@ -374,6 +376,8 @@ Scene parseScene(const tinyxml2::XMLElement& root, const std::string& source) {
             Lighting& l = scene.lighting;
             l.attenuationPerM = r.array3("attenuationPerM", l.attenuationPerM);
             l.background = r.array3("background", l.background);
+            l.backscatter = r.array3("backscatter", l.backscatter);
+            l.turbidityPerM = r.real("turbidityPerM", l.turbidityPerM);
             r.finish();
             noChildren(source, *e, c.path);
             checkWater(c, l);

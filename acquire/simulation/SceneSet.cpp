@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
+#include <utility>
 #include <random>
 
 namespace avatar::render {
@@ -33,6 +35,16 @@ private:
     std::mt19937_64 engine_;
 };
 
+/// Centre and radius (px) of the disc that holds a ball's silhouette in a
+/// camera (generous: 1.2 x the on-axis radius + 1 px); nullopt behind it.
+std::optional<std::pair<cv::Point2d, double>> imageDisc(const CameraIntrinsics& k, const cv::Vec3d& centre,
+                                                        double radius) {
+    if (centre[2] <= radius) return std::nullopt;
+    const auto px = projectPoint(k, cv::Point3d(centre));
+    if (!px) return std::nullopt;
+    return std::make_pair(*px, 1.2 * k.fc[0] * radius / centre[2] + 1.0);
+}
+
 /// Unit ray of the left camera through a pixel.
 cv::Vec3d rayThrough(const CameraIntrinsics& k, double u, double v) {
     const cv::Point2d xn = normalizePixelExact(k, {u, v}).value_or(pixelToNormalized(k, {u, v}));
@@ -51,7 +63,9 @@ void SceneSetSpec::validate() const {
     require(minRadiusMm > 0.0 && maxRadiusMm >= minRadiusMm, "SceneSetSpec.minRadiusMm/maxRadiusMm",
             "expected 0 < min <= max");
     require(!colours.empty(), "SceneSetSpec.colours", "at least one colour is needed");
-    for (double p : {nearBorderProbability, occludedInOneCameraProbability, touchingProbability, distractorProbability})
+    for (double p : {nearBorderProbability, occludedInOneCameraProbability, touchingProbability, distractorProbability,
+                     targetOcclusionProbability, waterProbability, darkProbability, mixedColourProbability,
+                     siltProbability})
         require(p >= 0.0 && p <= 1.0, "SceneSetSpec probabilities", "expected values in [0, 1]");
 }
 
@@ -63,6 +77,115 @@ void CheckerboardSpec::validate() const {
             "expected 0 < min <= max");
     require(maxTiltDeg >= 0.0 && maxTiltDeg < 80.0, "CheckerboardSpec.maxTiltDeg", "expected 0..80");
 }
+
+namespace {
+
+/// The variations of SceneSetSpec drawn from their own stream (see there).
+void addVariations(const SceneSetSpec& spec, const StereoSystemConfig& stereo, const SensorFormat& sensor, int index,
+                   Scene& s) {
+    Random rng(sceneSeed(spec.seed ^ 0x5eedfaceULL, static_cast<std::uint64_t>(index)));
+    const double w = sensor.width, h = sensor.height;
+    const RigidTransform rTl = rightTLeft(stereo);
+    const cv::Point3d rc = transformPoint(inverse(rTl), {0, 0, 0});
+    const cv::Vec3d rightCentre(rc.x, rc.y, rc.z);
+    const auto colour = [&] {
+        return spec.colours[static_cast<std::size_t>(rng.integer(0, static_cast<int>(spec.colours.size()) - 1))];
+    };
+    const auto nextName = [&] { return "t" + std::to_string(s.targets.size() + 1); };
+
+    if (rng.chance(spec.mixedColourProbability) && spec.colours.size() >= 2) {
+        const int a = rng.integer(0, static_cast<int>(spec.colours.size()) - 1);
+        int b = rng.integer(0, static_cast<int>(spec.colours.size()) - 2);
+        if (b >= a) ++b;
+        const double t = rng.uniform(0.35, 0.65);
+        TargetSpec m;
+        m.name = "mix_" + nextName();
+        const TargetColour& ca = spec.colours[static_cast<std::size_t>(a)];
+        const TargetColour& cb = spec.colours[static_cast<std::size_t>(b)];
+        m.type = t < 0.5 ? ca.name : cb.name;
+        for (std::size_t c = 0; c < 3; ++c) m.albedo[c] = (1.0 - t) * ca.albedo[c] + t * cb.albedo[c];
+        m.shape = rng.chance(0.5) ? Shape::Sphere : Shape::Disc;
+        m.radiusMm = rng.uniform(spec.minRadiusMm, spec.maxRadiusMm);
+        m.centreMm = rayThrough(stereo.left, rng.uniform(100.0, w - 100.0), rng.uniform(100.0, h - 100.0)) *
+                     rng.uniform(spec.minRangeMm, spec.maxRangeMm);
+        s.targets.push_back(m);
+    }
+
+    if (rng.chance(spec.targetOcclusionProbability) && !s.targets.empty()) {
+        // B in front of A, overlapping A in one camera and apart from it in
+        // the other; a few tries, or none at all.
+        const TargetSpec a = s.targets[static_cast<std::size_t>(rng.integer(0, static_cast<int>(s.targets.size()) - 1))];
+        for (int attempt = 0; attempt < 40; ++attempt) {
+            const bool inRight = rng.chance(0.5);
+            const cv::Vec3d camera = inRight ? rightCentre : cv::Vec3d(0, 0, 0);
+            const cv::Vec3d toA = a.centreMm - camera;
+            TargetSpec b;
+            b.name = nextName();
+            const TargetColour c = rng.chance(0.5) ? TargetColour{a.type, a.albedo} : colour();
+            b.type = c.name;
+            b.albedo = c.albedo;
+            b.shape = rng.chance(0.5) ? Shape::Sphere : Shape::Disc;
+            b.radiusMm = rng.uniform(spec.minRadiusMm, spec.maxRadiusMm) * 0.8;
+            const double f = rng.uniform(0.55, 0.85);
+            const double az = rng.uniform(0.0, 2.0 * M_PI);
+            cv::Vec3d side = toA.cross(cv::Vec3d(std::cos(az), std::sin(az), 0.0));
+            side /= cv::norm(side);
+            // Overlap by 20-60 % of A's apparent radius in that camera.
+            const double ra = a.radiusMm / cv::norm(toA), rb = b.radiusMm / (f * cv::norm(toA));
+            const double offset = (ra + rb - rng.uniform(0.2, 0.6) * ra) * f * cv::norm(toA);
+            b.centreMm = camera + toA * f + side * offset;
+            if (cv::norm(b.centreMm) < spec.minRangeMm * 0.6) continue;
+            const auto inView = [&](const CameraIntrinsics& k, const cv::Vec3d& centre, double r, bool rightCamera) {
+                const cv::Point3d p = rightCamera ? transformPoint(rTl, cv::Point3d(centre)) : cv::Point3d(centre);
+                return imageDisc(k, cv::Vec3d(p.x, p.y, p.z), r);
+            };
+            const auto aL = inView(stereo.left, a.centreMm, a.radiusMm, false), bL = inView(stereo.left, b.centreMm, b.radiusMm, false);
+            const auto aR = inView(stereo.right, a.centreMm, a.radiusMm, true), bR = inView(stereo.right, b.centreMm, b.radiusMm, true);
+            if (!aL || !bL || !aR || !bR) continue;
+            const auto inside = [&](const std::pair<cv::Point2d, double>& d) {
+                return d.first.x > d.second && d.first.y > d.second && d.first.x < w - d.second && d.first.y < h - d.second;
+            };
+            if (!inside(*bL) || !inside(*bR)) continue;
+            const double gapL = cv::norm(aL->first - bL->first) - aL->second - bL->second;
+            const double gapR = cv::norm(aR->first - bR->first) - aR->second - bR->second;
+            const double gapOther = inRight ? gapL : gapR, gapThis = inRight ? gapR : gapL;
+            if (gapThis < -3.0 && gapOther > 3.0) {
+                s.targets.push_back(b);
+                break;
+            }
+        }
+    }
+
+    if (rng.chance(spec.waterProbability)) {
+        Lighting& l = s.lighting;
+        l.attenuationPerM = {rng.uniform(0.3, 1.2), rng.uniform(0.03, 0.1), rng.uniform(0.05, 0.25)};
+        l.ambient[0] *= rng.uniform(0.4, 0.8);
+        l.ambient[2] *= rng.uniform(0.85, 1.0);
+        l.background = {0.0, 0.02, 0.03};
+    }
+    if (rng.chance(spec.darkProbability)) {
+        s.lighting.darknessFactor = rng.uniform(0.1, 0.25);
+        s.sensor.readNoiseDn = rng.uniform(20.0, 40.0);
+    }
+    if (rng.chance(spec.siltProbability)) {
+        const int particles = rng.integer(60, 200);
+        for (int k = 0; k < particles; ++k) {
+            Occluder o;
+            o.name = "silt" + std::to_string(k + 1);
+            o.radiusMm = rng.uniform(0.7, 3.0);
+            o.centreMm = rayThrough(stereo.left, rng.uniform(0.0, w), rng.uniform(0.0, h)) *
+                         rng.uniform(150.0, spec.maxRangeMm);
+            const double g = rng.uniform(0.6, 0.9);
+            o.albedo = {g, g, g * 0.95};
+            s.occluders.push_back(o);
+        }
+        s.lighting.turbidityPerM = rng.uniform(0.1, 0.5);
+        const double b = rng.uniform(0.03, 0.12);
+        s.lighting.backscatter = {0.7 * b, b, b};
+    }
+}
+
+}  // namespace
 
 std::vector<Scene> makeSceneSet(const SceneSetSpec& spec, const StereoSystemConfig& stereo,
                                 const SensorFormat& sensor, const std::string& prefix) {
@@ -185,6 +308,7 @@ std::vector<Scene> makeSceneSet(const SceneSetSpec& spec, const StereoSystemConf
             o.albedo = {grey, grey * 0.95, grey * 0.9};
             s.occluders.push_back(o);
         }
+        addVariations(spec, stereo, sensor, index, s);
         validateScene(s);
         scenes.push_back(std::move(s));
     }

@@ -73,7 +73,8 @@ std::string writeSceneString(const Scene& scene) {
         out << "    <" << channels[i] << " coefficient=\"" << formatDouble(l.strobe.rgb[i].coefficient)
             << "\" exponent=\"" << formatDouble(l.strobe.rgb[i].exponent) << "\"/>\n";
     out << "  </strobe>\n";
-    w.open("water").attr("attenuationPerM", l.attenuationPerM).attr("background", l.background).close();
+    w.open("water").attr("attenuationPerM", l.attenuationPerM).attr("background", l.background)
+        .attr("backscatter", l.backscatter).attr("turbidityPerM", l.turbidityPerM).close();
     const SensorNoise& n = scene.sensor;
     w.open("sensor").attr("exposure", n.exposure).attr("readNoiseDn", n.readNoiseDn)
         .attr("shotNoise", n.shotNoise).attr("fullWellElectrons", n.fullWellElectrons)

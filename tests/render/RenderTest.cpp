@@ -164,6 +164,19 @@ TEST(Render, LambertianLightAtTheCameraStrobeAndWater) {
         EXPECT_EQ(v[2 - c], std::round(albedo[c] * cosine * strobe[c] *
                                        std::exp(-attenuation[c] * 2.0 * range / 1000.0) * 65535.0))
             << "channel " << c;
+    // Haze: the turbidity adds to the extinction of both paths and the
+    // backscatter fills in what the view path loses.
+    scene.lighting.turbidityPerM = 0.3;
+    scene.lighting.backscatter = {0.1, 0.2, 0.3};
+    const auto hazy = render::render(scene, config, options);
+    const cv::Vec3w h = hazy.pair.left().at<cv::Vec3w>(p);
+    const double backscatter[3] = {0.1, 0.2, 0.3};
+    for (int c = 0; c < 3; ++c) {
+        const double view = std::exp(-(attenuation[c] + 0.3) * range / 1000.0);
+        const double surface = albedo[c] * cosine * view * view;  // light path = view path here
+        EXPECT_NEAR(h[2 - c], (surface + backscatter[c] * (1.0 - view)) * strobe[c] * 65535.0, 0.5 + 1e-9)
+            << "channel " << c;
+    }
 }
 
 TEST(Render, BitDepths) {
@@ -264,11 +277,44 @@ TEST(Render, BorderVisibility) {
     const auto& edge = r.truth.target("edge");
     EXPECT_EQ(edge.left.visibility, TargetVisibility::Partial);
     EXPECT_TRUE(edge.left.atBorder);
+    EXPECT_TRUE(edge.left.cut);
     EXPECT_FALSE(edge.left.occluded);
+    EXPECT_LT(edge.left.areaPx, 0.6 * M_PI * std::pow(1049.13 * 40 / 1000, 2));  // about half of it is outside
     EXPECT_EQ(edge.right.visibility, TargetVisibility::None);
     EXPECT_EQ(r.truth.target("inside").left.visibility, TargetVisibility::Full);
     EXPECT_EQ(r.truth.target("outside").left.visibility, TargetVisibility::None);
     EXPECT_EQ(r.truth.target("outside").right.visibility, TargetVisibility::None);
+}
+
+// A whole target whose silhouette only touches the last row is full, not cut;
+// one that continues beyond it is cut. The sphere's silhouette bottom lies at
+// v = cc_y + f tan(asin(r / d) + atan(y / z)) for a sphere on the y-z plane.
+TEST(Render, TouchingTheBorderIsNotCut) {
+    const auto bottomOf = [](double y, double z, double r) {
+        const double f = 1050.38, cy = 564.45;
+        return cy + f * std::tan(std::asin(r / std::hypot(y, z)) + std::atan2(y, z));
+    };
+    // Solve for y so that the silhouette's lowest point is 959.3 (inside the
+    // last row, whose outer edge is 959.5) and 960.5 (a pixel beyond it).
+    const auto yFor = [&](double bottom) {
+        double lo = 0, hi = 600;
+        for (int i = 0; i < 60; ++i) (bottomOf(0.5 * (lo + hi), 1000, 40) < bottom ? lo : hi) = 0.5 * (lo + hi);
+        return 0.5 * (lo + hi);
+    };
+    Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
+    scene.targets = {target("touching", Shape::Sphere, {-150, yFor(959.3), 1000}, 40),
+                     target("crossing", Shape::Sphere, {150, yFor(960.5), 1000}, 40)};
+    const auto r = render::render(scene, test::scorpion(), test::noiseFree());
+    const auto& touching = r.truth.target("touching").left;
+    EXPECT_TRUE(touching.atBorder);
+    EXPECT_FALSE(touching.cut);
+    EXPECT_EQ(touching.visibility, TargetVisibility::Full);
+    EXPECT_NEAR(touching.potentialAreaPx, touching.areaPx, 1e-9);
+    const auto& crossing = r.truth.target("crossing").left;
+    EXPECT_TRUE(crossing.atBorder);
+    EXPECT_TRUE(crossing.cut);
+    EXPECT_EQ(crossing.visibility, TargetVisibility::Partial);
+    EXPECT_EQ(crossing.hiddenFraction(), 0.0);  // nothing in front of it: cut, not hidden
 }
 
 TEST(Render, ArmMarkerNeedsARegistration) {

@@ -30,7 +30,7 @@ TEST(SceneFile, ReadsEveryElement) {
   <lighting ambient="0.1 0.1 0.1" lightIntensity="0.8 0.8 0.8" lightPositionMm="0 -50 0"
             inverseSquare="true" referenceDistanceMm="900" darknessFactor="0.2"/>
   <strobe centrePx="640 480"><red coefficient="1" exponent="-0.002"/><blue exponent="-0.001"/></strobe>
-  <water attenuationPerM="0.5 0.12 0.08" background="0 0.01 0.02"/>
+  <water attenuationPerM="0.5 0.12 0.08" background="0 0.01 0.02" backscatter="0.05 0.2 0.25" turbidityPerM="0.4"/>
   <sensor exposure="1.2" readNoiseDn="3" shotNoise="true" fullWellElectrons="15000" blackLevelDn="64"/>
   <registration om="0 1.5707963267948966 0" translationMm="100 0 0"/>
   <target name="duck" shape="duck" centreMm="0 0 900" radiusMm="40" albedo="0.9 0.8 0.1" om="0 0.3 0"/>
@@ -53,6 +53,8 @@ TEST(SceneFile, ReadsEveryElement) {
     EXPECT_EQ(s.lighting.strobe.rgb[1].exponent, 0.0);
     EXPECT_EQ(s.lighting.strobe.rgb[2].exponent, -0.001);
     EXPECT_EQ(s.lighting.attenuationPerM[0], 0.5);
+    EXPECT_EQ(s.lighting.backscatter[2], 0.25);
+    EXPECT_EQ(s.lighting.turbidityPerM, 0.4);
     EXPECT_EQ(s.sensor.blackLevelDn, 64.0);
     ASSERT_TRUE(s.baseTVision);
     EXPECT_NEAR(s.baseTVision->rotation[2], 1.0, 1e-15);

@@ -54,7 +54,7 @@ struct RenderOptions {
 };
 
 enum class TargetVisibility {
-    Full,     ///< entirely in the image and unoccluded
+    Full,     ///< entirely in the image and unoccluded (it may touch the border)
     Partial,  ///< cut by the image border or partly hidden behind something
     None      ///< not seen at all
 };
@@ -67,9 +67,16 @@ struct TargetView {
     /// Coverage-weighted centroid of the visible silhouette; nullopt when not seen.
     std::optional<cv::Point2d> silhouetteCentroidPx;
     double areaPx{0.0};  ///< visible silhouette area in pixels (coverage sum)
+    /// Silhouette area inside the image with nothing in front (>= areaPx).
+    double potentialAreaPx{0.0};
     TargetVisibility visibility{TargetVisibility::None};
     bool occluded{false};  ///< part of it is hidden by something nearer
     bool atBorder{false};  ///< its silhouette reaches the outermost pixel row or column
+    /// Part of its silhouette lies outside the image (beyond the outer pixel
+    /// edges): cut by the border, not merely touching it.
+    bool cut{false};
+    /// 1 - areaPx / potentialAreaPx: the part of its in-image silhouette that is hidden.
+    double hiddenFraction() const { return potentialAreaPx > 0.0 ? 1.0 - areaPx / potentialAreaPx : 0.0; }
 };
 
 struct TargetTruth {

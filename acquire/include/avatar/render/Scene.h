@@ -138,6 +138,15 @@ struct Lighting {
     Rgb attenuationPerM{0.0, 0.0, 0.0};
     /// Radiance of rays that hit nothing (open water).
     Rgb background{0.0, 0.0, 0.0};
+    /// Haze: light scattered towards the camera by suspended particles, the
+    /// radiance of an infinitely long column of water. A surface at distance
+    /// d from the camera is seen as L exp(-k d) + backscatter (1 - exp(-k d)),
+    /// k = attenuationPerM + turbidityPerM per metre; open water as
+    /// background + backscatter.
+    Rgb backscatter{0.0, 0.0, 0.0};
+    /// Extinction by the particles (all channels, per metre of light path),
+    /// on top of attenuationPerM.
+    double turbidityPerM{0.0};
 };
 
 /// Sensor response and noise. A radiance of 1 with exposure 1 is full scale.

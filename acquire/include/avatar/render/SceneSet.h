@@ -39,6 +39,24 @@ struct SceneSetSpec {
     double occludedInOneCameraProbability{0.3}; ///< an occluder hides part of one target in one camera
     double touchingProbability{0.3};            ///< two targets (spheres) touching side by side
     double distractorProbability{0.4};          ///< a box of nearly a target colour that is not a target
+    // The variations below are drawn from a stream of their own: with them
+    // all 0 (the defaults), a seed gives the same scenes as before they existed.
+    /// Another target in front of one target, overlapping it in one camera
+    /// only (the other camera sees the two apart).
+    double targetOcclusionProbability{0.0};
+    /// Blue-green water: red attenuated 0.3-1.2 per metre, green 0.03-0.1,
+    /// blue 0.05-0.25, ambient light tinted blue-green, so that colours move
+    /// (and may cross from one filter to another).
+    double waterProbability{0.0};
+    /// Lights low: everything x 0.1-0.25, read noise 20-40 DN.
+    double darkProbability{0.0};
+    /// A target whose albedo lies between two of the colours (mixed 35-65 %);
+    /// its name starts with "mix_" and its type is the nearer colour's.
+    double mixedColourProbability{0.0};
+    /// Silt: 60-200 small bright particles (spheres of 0.7-3 mm, named
+    /// "silt...") between 150 mm and the far range, and haze (backscatter and
+    /// turbidity) with it.
+    double siltProbability{0.0};
     /// Throws avatar::InvalidArgument naming the bad field.
     void validate() const;
 };
