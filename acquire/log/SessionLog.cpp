@@ -172,7 +172,7 @@ SessionLogReader::SessionLogReader(fs::path sessionDirectory)
             break;
         }
         try {
-            entry.record = sessionlog::parseRecord(text.substr(start, end - start));
+            entry.record = sessionlog::parseRecord(text.substr(start, end - start), version_);
         } catch (const FormatError& e) {
             entry.error = prefix + std::to_string(lineNo) + ": " + e.what();
         }

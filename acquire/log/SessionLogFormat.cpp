@@ -92,20 +92,49 @@ std::optional<Point> parsePoint(std::string_view key, std::string_view text) {
     return p;
 }
 
+/// The upper triangle of a covariance, "xx;xy;xz;yy;yz;zz", or "-".
+std::string formatCovariance(const std::optional<Covariance3>& c) {
+    if (!c) return "-";
+    const Covariance3& m = *c;
+    return formatDouble(m(0, 0)) + ";" + formatDouble(m(0, 1)) + ";" + formatDouble(m(0, 2)) + ";" +
+           formatDouble(m(1, 1)) + ";" + formatDouble(m(1, 2)) + ";" + formatDouble(m(2, 2));
+}
+
+std::optional<Covariance3> parseCovariance(std::string_view key, std::string_view text) {
+    if (text == "-") return std::nullopt;
+    const auto parts = text::split(text, ';');
+    if (parts.size() != 6) badValue(key, text, "'-' or xx;xy;xz;yy;yz;zz");
+    static const int rows[6] = {0, 0, 0, 1, 1, 2}, cols[6] = {0, 1, 2, 1, 2, 2};
+    Covariance3 m;
+    for (int k = 0; k < 6; ++k) m(rows[k], cols[k]) = m(cols[k], rows[k]) = parseDouble(key, parts[static_cast<std::size_t>(k)]);
+    return m;
+}
+
+ShapeModel parseModel(std::string_view key, std::string_view text) {
+    for (const ShapeModel m : {ShapeModel::None, ShapeModel::Sphere, ShapeModel::Disc, ShapeModel::Composite})
+        if (text == toString(m)) return m;
+    badValue(key, text, "none, sphere, disc or composite");
+}
+
 std::string formatTarget(const VisionTarget& t) {
     return escape(t.type) + "," + std::to_string(t.flags) + "," + formatPoint(t.positionVisionMm) +
            "," + formatPoint(t.positionBaseMm) + "," + formatPoint(t.centroidLeftPx) + "," +
            formatPoint(t.centroidRightPx) + "," + formatDouble(t.areaLeftPx) + "," +
-           formatDouble(t.areaRightPx) + "," + formatDouble(t.matchError);
+           formatDouble(t.areaRightPx) + "," + formatDouble(t.matchError) + "," + std::string(toString(t.model)) +
+           "," + formatCovariance(t.covarianceVisionMm2) + "," + formatCovariance(t.covarianceBaseMm2) + "," +
+           formatDouble(t.rayResidualMm) + "," + formatDouble(t.rayResidualPx);
 }
 
-VisionTarget parseTarget(std::string_view text, std::size_t index) {
+VisionTarget parseTarget(std::string_view text, std::size_t index, int version) {
     const std::string key = "target[" + std::to_string(index) + "]";
     const auto parts = text::split(text, ',');
-    if (parts.size() != 9)
-        throw FormatError("field '" + key + "': expected 9 comma-separated values " +
-                          "(type,flags,positionVision,positionBase,centroidLeft,centroidRight," +
-                          "areaLeft,areaRight,matchError), got " + std::to_string(parts.size()));
+    const std::size_t expected = version == 1 ? 9 : 14;
+    if (parts.size() != expected)
+        throw FormatError("field '" + key + "': expected " + std::to_string(expected) +
+                          " comma-separated values (type,flags,positionVision,positionBase,centroidLeft,"
+                          "centroidRight,areaLeft,areaRight,matchError" +
+                          (version == 1 ? "" : ",model,covarianceVision,covarianceBase,rayResidualMm,rayResidualPx") +
+                          "), got " + std::to_string(parts.size()));
     VisionTarget t;
     try {
         t.type = unescape(parts[0]);
@@ -120,6 +149,12 @@ VisionTarget parseTarget(std::string_view text, std::size_t index) {
     t.areaLeftPx = parseDouble(key + ".areaLeft", parts[6]);
     t.areaRightPx = parseDouble(key + ".areaRight", parts[7]);
     t.matchError = parseDouble(key + ".matchError", parts[8]);
+    if (version == 1) return t;
+    t.model = parseModel(key + ".model", parts[9]);
+    t.covarianceVisionMm2 = parseCovariance(key + ".covarianceVision", parts[10]);
+    t.covarianceBaseMm2 = parseCovariance(key + ".covarianceBase", parts[11]);
+    t.rayResidualMm = parseDouble(key + ".rayResidualMm", parts[12]);
+    t.rayResidualPx = parseDouble(key + ".rayResidualPx", parts[13]);
     return t;
 }
 
@@ -238,9 +273,9 @@ int parseHeader(std::string_view line) {
     if (versionText.empty() || ec != std::errc() || ptr != versionText.data() + versionText.size() ||
         version < 1)
         throw FormatError("session log version " + quote(versionText) + " is not a positive integer");
-    if (version != kSessionLogVersion)
-        throw FormatError("unsupported session log version " + std::to_string(version) +
-                          "; this reader reads version " + std::to_string(kSessionLogVersion));
+    if (version < kOldestSessionLogVersion || version > kSessionLogVersion)
+        throw FormatError("unsupported session log version " + std::to_string(version) + "; this reader reads versions " +
+                          std::to_string(kOldestSessionLogVersion) + " to " + std::to_string(kSessionLogVersion));
     return version;
 }
 
@@ -271,7 +306,7 @@ std::string formatRecord(const SessionRecord& r) {
     return line;
 }
 
-SessionRecord parseRecord(std::string_view line) {
+SessionRecord parseRecord(std::string_view line, int version) {
     if (line.substr(0, 10) != "iteration=")
         throw FormatError("not a session record: " + quote(line) + " does not start with 'iteration='");
     const std::size_t crcPos = line.rfind(kChecksumKey);
@@ -328,7 +363,7 @@ SessionRecord parseRecord(std::string_view line) {
             t.milliseconds = parseDouble(key + ".milliseconds", parts[1]);
             v.timings.push_back(std::move(t));
         }
-        while (f.nextIs("target")) v.targets.push_back(parseTarget(f.take("target"), v.targets.size()));
+        while (f.nextIs("target")) v.targets.push_back(parseTarget(f.take("target"), v.targets.size(), version));
         r.result = std::move(v);
     }
     f.expectEnd();

@@ -20,7 +20,7 @@ std::string unescape(std::string_view text);
 /// Shortest text that reads back to exactly @p value (std::to_chars).
 using text::formatDouble;
 
-/// "AVATAR-SESSION-LOG 1\n".
+/// "AVATAR-SESSION-LOG 2\n".
 std::string headerLine();
 /// Parses a header line (without its line end) and returns its version;
 /// throws FormatError if it is not a header or the version is not supported.
@@ -29,8 +29,8 @@ int parseHeader(std::string_view line);
 /// The complete line of a record, checksum and line end included. Does not
 /// check consistency (see checkRecord).
 std::string formatRecord(const SessionRecord& record);
-/// Parses one record line without its line end.
-SessionRecord parseRecord(std::string_view line);
+/// Parses one record line without its line end, written in format @p version.
+SessionRecord parseRecord(std::string_view line, int version = kSessionLogVersion);
 
 /// Checks that @p fileName parses as a RawImageName of @p side, @p group and
 /// @p member; @p field names the field in messages.

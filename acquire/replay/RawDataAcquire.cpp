@@ -167,10 +167,20 @@ const char* text(Visibility v) {
     return "unknown";
 }
 
+std::string text(const std::optional<Covariance3>& c) {
+    if (!c) return "-";
+    std::string s;
+    for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j) s += (s.empty() ? "" : ";") + text((*c)(i, j));
+    return s;
+}
+
 std::string describe(const VisionTarget& t) {
     return t.type + "," + std::to_string(t.flags) + "," + text(t.positionVisionMm) + "," + text(t.positionBaseMm) +
            "," + text(t.centroidLeftPx) + "," + text(t.centroidRightPx) + "," + text(t.areaLeftPx) + "," +
-           text(t.areaRightPx) + "," + text(t.matchError);
+           text(t.areaRightPx) + "," + text(t.matchError) + "," + std::string(toString(t.model)) + "," +
+           text(t.covarianceVisionMm2) + "," + text(t.covarianceBaseMm2) + "," + text(t.rayResidualMm) + "," +
+           text(t.rayResidualPx);
 }
 
 class Comparer {
@@ -198,6 +208,18 @@ public:
         number(field + ".x", a->x, b->x);
         number(field + ".y", a->y, b->y);
         if constexpr (std::is_same_v<Point, cv::Point3d>) number(field + ".z", a->z, b->z);
+    }
+    /// A covariance, entry by entry of its upper triangle.
+    void covariance(const std::string& field, const std::optional<Covariance3>& a,
+                    const std::optional<Covariance3>& b) {
+        if (a.has_value() != b.has_value()) {
+            out.push_back({field, avatar::text(a), avatar::text(b)});
+            return;
+        }
+        if (!a) return;
+        for (int i = 0; i < 3; ++i)
+            for (int j = i; j < 3; ++j)
+                number(field + "(" + std::to_string(i) + "," + std::to_string(j) + ")", (*a)(i, j), (*b)(i, j));
     }
 };
 
@@ -240,6 +262,11 @@ std::vector<ResultDifference> compareResults(const VisionTargets& recorded, cons
         c.number(p + "areaLeftPx", x.areaLeftPx, y.areaLeftPx);
         c.number(p + "areaRightPx", x.areaRightPx, y.areaRightPx);
         c.number(p + "matchError", x.matchError, y.matchError);
+        c.text(p + "model", std::string(toString(x.model)), std::string(toString(y.model)));
+        c.covariance(p + "covarianceVisionMm2", x.covarianceVisionMm2, y.covarianceVisionMm2);
+        c.covariance(p + "covarianceBaseMm2", x.covarianceBaseMm2, y.covarianceBaseMm2);
+        c.number(p + "rayResidualMm", x.rayResidualMm, y.rayResidualMm);
+        c.number(p + "rayResidualPx", x.rayResidualPx, y.rayResidualPx);
     }
     for (std::size_t i = common; i < recorded.targets.size(); ++i)
         c.out.push_back({"targets[" + std::to_string(i) + "]", describe(recorded.targets[i]), "-"});

@@ -3,6 +3,8 @@
 #include <avatar/common/Error.h>
 
 #include <cmath>
+#include <functional>
+#include <limits>
 
 namespace avatar {
 
@@ -44,8 +46,79 @@ std::optional<StereoPoint> StereoCoordinateCalculator::triangulateNormalized(
     StereoPoint point;
     point.leftMm = {XL[0], XL[1], XL[2]};
     point.rightMm = {XR[0], XR[1], XR[2]};
+    point.rayGapMm = cv::norm(X1 - X2);
+    if (XL[2] > 0.0 && XR[2] > 0.0) {
+        const double el = geometry_.left.fc[0] * std::hypot(XL[0] / XL[2] - xl.x, XL[1] / XL[2] - xl.y);
+        const double er = geometry_.right.fc[0] * std::hypot(XR[0] / XR[2] - xr.x, XR[1] / XR[2] - xr.y);
+        point.reprojectionPx = std::sqrt(0.5 * (el * el + er * er));
+    } else {
+        point.reprojectionPx = std::numeric_limits<double>::infinity();  // behind a camera
+    }
     if (geometry_.baseTVision) point.baseMm = transformPoint(*geometry_.baseTVision, point.leftMm);
     return point;
+}
+
+namespace {
+
+/// J C J^T for the 3x4 Jacobian of a map of four inputs (left x, y, right x,
+/// y) by central differences of @p step, C = diag(covLeft, covRight).
+std::optional<cv::Matx33d> propagate(const std::function<std::optional<cv::Point3d>(const cv::Vec4d&)>& f,
+                                     const cv::Vec4d& at, double step, const cv::Matx22d& covLeft,
+                                     const cv::Matx22d& covRight) {
+    cv::Matx<double, 3, 4> J;
+    for (int k = 0; k < 4; ++k) {
+        cv::Vec4d plus = at, minus = at;
+        plus[k] += step;
+        minus[k] -= step;
+        const auto a = f(plus), b = f(minus);
+        if (!a || !b) return std::nullopt;
+        const cv::Point3d d = (*a - *b) * (0.5 / step);
+        J(0, k) = d.x;
+        J(1, k) = d.y;
+        J(2, k) = d.z;
+    }
+    cv::Matx44d C = cv::Matx44d::zeros();
+    for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) {
+            C(i, j) = covLeft(i, j);
+            C(2 + i, 2 + j) = covRight(i, j);
+        }
+    return cv::Matx33d(J * C * J.t());
+}
+
+}  // namespace
+
+std::optional<cv::Matx33d> StereoCoordinateCalculator::covarianceNormalized(const cv::Point2d& xl,
+                                                                           const cv::Point2d& xr,
+                                                                           const cv::Matx22d& covLeft,
+                                                                           const cv::Matx22d& covRight) const {
+    const auto f = [this](const cv::Vec4d& v) -> std::optional<cv::Point3d> {
+        const auto p = triangulateNormalized({v[0], v[1]}, {v[2], v[3]});
+        if (!p) return std::nullopt;
+        return p->leftMm;
+    };
+    return propagate(f, {xl.x, xl.y, xr.x, xr.y}, 1e-6, covLeft, covRight);
+}
+
+std::optional<cv::Matx33d> StereoCoordinateCalculator::covariancePixels(const cv::Point2d& leftPx,
+                                                                       const cv::Point2d& rightPx,
+                                                                       const cv::Matx22d& covLeftPx,
+                                                                       const cv::Matx22d& covRightPx) const {
+    const auto f = [this](const cv::Vec4d& v) -> std::optional<cv::Point3d> {
+        const auto p = triangulate({v[0], v[1]}, {v[2], v[3]});
+        if (!p) return std::nullopt;
+        return p->leftMm;
+    };
+    return propagate(f, {leftPx.x, leftPx.y, rightPx.x, rightPx.y}, 1e-3, covLeftPx, covRightPx);
+}
+
+cv::Matx33d StereoCoordinateCalculator::covarianceToBase(const cv::Matx33d& visionCovariance) const {
+    if (!geometry_.baseTVision)
+        throw InvalidArgument(
+            "StereoCoordinateCalculator::covarianceToBase: the stereo configuration has no "
+            "baseTVision registration");
+    const cv::Matx33d R = rotationMatrix(*geometry_.baseTVision);
+    return R * visionCovariance * R.t();
 }
 
 cv::Point3d StereoCoordinateCalculator::visionToBase(const cv::Point3d& visionMm) const {

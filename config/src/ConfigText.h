@@ -54,9 +54,11 @@ struct EnumWords<ColorFilterMethod> {
 
 template <>
 struct EnumWords<TargetShape> {
-    static constexpr std::array<std::pair<TargetShape, std::string_view>, 2> table{{
-        {TargetShape::Unknown, "unknown"}, {TargetShape::Sphere, "sphere"}}};
-    static constexpr const char* list = "unknown or sphere";
+    // "unknown" is the name version 1 of the schema gave "none"; still read.
+    static constexpr std::array<std::pair<TargetShape, std::string_view>, 5> table{{
+        {TargetShape::None, "none"}, {TargetShape::Sphere, "sphere"}, {TargetShape::Disc, "disc"},
+        {TargetShape::Composite, "composite"}, {TargetShape::None, "unknown"}}};
+    static constexpr const char* list = "none, sphere, disc or composite";
     static constexpr const char* type = "TargetShape";
 };
 

@@ -333,11 +333,17 @@ TEST(CompareResults, EveryFieldIsNamed) {
     b.targets[1].centroidLeftPx->y = 2.75;
     b.targets[1].areaLeftPx = 78;
     b.targets[2].areaRightPx = 1;
+    b.targets[0].model = ShapeModel::Disc;
+    (*b.targets[0].covarianceVisionMm2)(1, 2) = 0.5;
+    b.targets[0].covarianceBaseMm2.reset();
+    b.targets[0].rayResidualPx = 2.0;
     std::vector<std::string> fields;
     for (const auto& d : compareResults(a, b)) fields.push_back(d.field);
     EXPECT_EQ(fields, (std::vector<std::string>{"iteration", "acquisition.member", "acquisition.right.cameraId",
                                                 "visibility", "visibilityReason", "targets[0].type",
                                                 "targets[0].flags", "targets[0].positionBaseMm",
+                                                "targets[0].model", "targets[0].covarianceVisionMm2(1,2)",
+                                                "targets[0].covarianceBaseMm2", "targets[0].rayResidualPx",
                                                 "targets[1].centroidLeftPx.y", "targets[1].areaLeftPx",
                                                 "targets[2].areaRightPx"}));
     const auto d = compareResults(a, b);
@@ -357,11 +363,11 @@ TEST(CompareResults, MissingAndExtraTargetsAreListedWholly) {
     EXPECT_EQ(d[0].recorded, "3");
     EXPECT_EQ(d[0].replayed, "1");
     EXPECT_EQ(d[1].field, "targets[1]");
-    EXPECT_EQ(d[1].recorded, "arm, end-effector: IEEM 50%,10,-,-,1.5;2.5,-,77.75,0,0");
+    EXPECT_EQ(d[1].recorded, "arm, end-effector: IEEM 50%,10,-,-,1.5;2.5,-,77.75,0,0,composite,-,-,0,0");
     EXPECT_EQ(d[1].replayed, "-");
     d = compareResults(b, a);
     ASSERT_EQ(d.size(), 3u);
     EXPECT_EQ(d[2].field, "targets[2]");
     EXPECT_EQ(d[2].recorded, "-");
-    EXPECT_EQ(d[2].replayed, ",4294967295,-,-,-,-,0,inf,-inf");
+    EXPECT_EQ(d[2].replayed, ",4294967295,-,-,-,-,0,inf,-inf,none,-,-,0,0");
 }

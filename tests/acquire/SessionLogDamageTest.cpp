@@ -237,21 +237,34 @@ INSTANTIATE_TEST_SUITE_P(
         BadField{"TimingNotANumber", "result=none", "result=good reason= timing=abc:1.5.2",
                  "field 'timing[0].milliseconds': '1.5.2' is not a number"},
         BadField{"TargetWithTooFewValues", "result=none", "result=good reason= target=a,1,-,-,-,-,1,2",
-                 "field 'target[0]': expected 9 comma-separated values (type,flags,positionVision,positionBase,"
-                 "centroidLeft,centroidRight,areaLeft,areaRight,matchError), got 8"},
+                 "field 'target[0]': expected 14 comma-separated values (type,flags,positionVision,positionBase,"
+                 "centroidLeft,centroidRight,areaLeft,areaRight,matchError,model,covarianceVision,covarianceBase,"
+                 "rayResidualMm,rayResidualPx), got 8"},
+        BadField{"TargetOfVersionOneInAVersionTwoLog", "result=none", "result=good reason= target=a,1,-,-,-,-,1,2,3",
+                 "field 'target[0]': expected 14 comma-separated values (type,flags,positionVision,positionBase,"
+                 "centroidLeft,centroidRight,areaLeft,areaRight,matchError,model,covarianceVision,covarianceBase,"
+                 "rayResidualMm,rayResidualPx), got 9"},
         BadField{"TargetPositionOfTwoCoordinates", "result=none",
-                 "result=good reason= target=a,1,-,-,-,-,1,2,3 target=b,1,1;2,-,-,-,1,2,3",
+                 "result=good reason= target=a,1,-,-,-,-,1,2,3,none,-,-,0,0 target=b,1,1;2,-,-,-,1,2,3,none,-,-,0,0",
                  "field 'target[1].positionVision': '1;2' is not '-' or x;y;z"},
-        BadField{"TargetFlagsTooLarge", "result=none", "result=good reason= target=a,4294967296,-,-,-,-,1,2,3",
-                 "field 'target[0].flags': '4294967296' is not an unsigned 32-bit integer"}),
+        BadField{"TargetFlagsTooLarge", "result=none", "result=good reason= target=a,4294967296,-,-,-,-,1,2,3,none,-,-,0,0",
+                 "field 'target[0].flags': '4294967296' is not an unsigned 32-bit integer"},
+        BadField{"TargetModelUnknown", "result=none", "result=good reason= target=a,1,-,-,-,-,1,2,3,cube,-,-,0,0",
+                 "field 'target[0].model': 'cube' is not none, sphere, disc or composite"},
+        BadField{"TargetCovarianceShort", "result=none",
+                 "result=good reason= target=a,1,-,-,-,-,1,2,3,sphere,1;0;0;1;0,-,0,0",
+                 "field 'target[0].covarianceVision': '1;0;0;1;0' is not '-' or xx;xy;xz;yy;yz;zz"},
+        BadField{"TargetResidualNotANumber", "result=none",
+                 "result=good reason= target=a,1,-,-,-,-,1,2,3,disc,-,-,0.5,x",
+                 "field 'target[0].rayResidualPx': 'x' is not a number"}),
     [](const ::testing::TestParamInfo<BadField>& param) { return std::string(param.param.name); });
 
 // ------------------------------------------------------------ the header
 
 TEST_F(DamagedSession, UnknownVersion) {
-    setLine(1, "AVATAR-SESSION-LOG 2\n");
+    setLine(1, "AVATAR-SESSION-LOG 3\n");
     EXPECT_EQ(messageOf<FormatError>([&] { SessionLogReader r(dir.path()); }),
-              prefix + "1: unsupported session log version 2; this reader reads version 1");
+              prefix + "1: unsupported session log version 3; this reader reads versions 1 to 2");
 }
 
 TEST_F(DamagedSession, VersionThatIsNotANumber) {
@@ -270,7 +283,7 @@ TEST_F(DamagedSession, NotASessionLog) {
 TEST_F(DamagedSession, EmptyLogFile) {
     writeText(log, "");
     EXPECT_EQ(messageOf<FormatError>([&] { SessionLogReader r(dir.path()); }),
-              prefix + "1: empty file; expected the header 'AVATAR-SESSION-LOG 1'");
+              prefix + "1: empty file; expected the header 'AVATAR-SESSION-LOG 2'");
 }
 
 TEST_F(DamagedSession, HeaderWithoutLineEnd) {

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include <string>
 #include <vector>
 
@@ -68,7 +70,7 @@ TEST(SessionLog, RoundTripsEveryField) {
     EXPECT_EQ(written[1].files.right.name, "R_00001_00001_8x6_12b_1c_GB_be.raw");
 
     const SessionLogReader reader(session);
-    EXPECT_EQ(reader.version(), 1);
+    EXPECT_EQ(reader.version(), 2);
     EXPECT_EQ(reader.logPath(), session / "session.log");
     EXPECT_TRUE(reader.errors().empty());
     ASSERT_EQ(reader.entries().size(), 4u);
@@ -126,6 +128,10 @@ TEST(SessionLog, WritesTheDocumentedText) {
         t.areaLeftPx = 35;
         t.areaRightPx = 36;
         t.matchError = 0.25;
+        t.model = ShapeModel::Disc;
+        t.covarianceVisionMm2 = Covariance3(0.25, 0, 0.5, 0, 0.25, 0, 0.5, 0, 4);
+        t.rayResidualMm = 0.5;
+        t.rayResidualPx = 0.125;
         v.targets = {t};
         r.result = v;
         writer.append(r);
@@ -139,15 +145,45 @@ TEST(SessionLog, WritesTheDocumentedText) {
         writer.append(r2);
     }
     EXPECT_EQ(readText(dir / "session.log"),
-              "AVATAR-SESSION-LOG 1\n"
+              "AVATAR-SESSION-LOG 2\n"
               "iteration=1 group=1 member=0 leftCamera=camL leftTimeUs=1700000000000000 rightCamera=camR "
               "rightTimeUs=1700000000000017 leftFile=L_00001_00000_2x1_8b_1c_MONO_le.raw leftCrc=b6cc4292 "
               "rightFile=R_00001_00000_2x1_8b_1c_MONO_le.raw rightCrc=6d998525 config=1 "
               "configXml=<avatar>%0A%20%20<camera%20width=\"2\"/>%0A</avatar> result=good reason=all%20clear "
-              "timing=total:12.5 target=sample,1,1;2;300.5,-,10.5;20,11.25;20,35,36,0.25 crc=0b320739\n"
+              "timing=total:12.5 target=sample,1,1;2;300.5,-,10.5;20,11.25;20,35,36,0.25,"
+              "disc,0.25;0;0.5;0.25;0;4,-,0.5,0.125 crc=00b7280e\n"
               "iteration=2 group=1 member=1 leftCamera=camL leftTimeUs=1700000002500000 rightCamera=camR "
               "rightTimeUs=1700000002500017 leftFile=L_00001_00001_2x1_8b_1c_MONO_le.raw leftCrc=b6cc4292 "
               "rightFile=R_00001_00001_2x1_8b_1c_MONO_le.raw rightCrc=6d998525 config=1 result=none crc=9032e9ed\n");
+}
+
+// Logs recorded before version 2 stay readable: their targets have no shape
+// model, covariances or ray residuals (docs/formats.md).
+TEST(SessionLog, ReadsVersionOneLogs) {
+    TempDir dir;
+    std::string body =
+        "iteration=1 group=1 member=0 leftCamera=camL leftTimeUs=1700000000000000 rightCamera=camR "
+        "rightTimeUs=1700000000000017 leftFile=L_00001_00000_2x1_8b_1c_MONO_le.raw leftCrc=b6cc4292 "
+        "rightFile=R_00001_00000_2x1_8b_1c_MONO_le.raw rightCrc=6d998525 config=1 "
+        "configXml=<avatar>%0A%20%20<camera%20width=\"2\"/>%0A</avatar> result=good reason=all%20clear "
+        "timing=total:12.5 target=sample,1,1;2;300.5,-,10.5;20,11.25;20,35,36,0.25";
+    {
+        std::ofstream out(dir / "session.log", std::ios::binary);
+        out << "AVATAR-SESSION-LOG 1\n" << body << " crc=0b320739\n";
+    }
+    const SessionLogReader reader(dir.path());
+    EXPECT_EQ(reader.version(), 1);
+    EXPECT_TRUE(reader.errors().empty()) << reader.errors().front();
+    ASSERT_EQ(reader.records().size(), 1u);
+    ASSERT_TRUE(reader.records()[0].result);
+    ASSERT_EQ(reader.records()[0].result->targets.size(), 1u);
+    const VisionTarget& t = reader.records()[0].result->targets[0];
+    EXPECT_EQ(t.flags, kTargetStereo);
+    EXPECT_EQ(*t.positionVisionMm, cv::Point3d(1, 2, 300.5));
+    EXPECT_EQ(t.matchError, 0.25);
+    EXPECT_EQ(t.model, ShapeModel::None);
+    EXPECT_FALSE(t.covarianceVisionMm2);
+    EXPECT_EQ(t.rayResidualMm, 0.0);
 }
 
 TEST(SessionLog, EachRecordIsOnDiskWhenAppendReturns) {
@@ -165,7 +201,7 @@ TEST(SessionLog, EachRecordIsOnDiskWhenAppendReturns) {
 TEST(SessionLog, HasNoRecordsRightAfterOpening) {
     TempDir dir;
     { SessionLogWriter writer(dir.path()); }
-    EXPECT_EQ(readText(dir / "session.log"), "AVATAR-SESSION-LOG 1\n");
+    EXPECT_EQ(readText(dir / "session.log"), "AVATAR-SESSION-LOG 2\n");
     const SessionLogReader reader(dir.path());
     EXPECT_TRUE(reader.entries().empty());
 }

@@ -40,11 +40,17 @@ inline VisionTargets fullResult(std::uint64_t iteration, const AcquisitionId& id
     stereo.areaLeftPx = 1523.0;
     stereo.areaRightPx = 1498.5;
     stereo.matchError = 0.017;
+    stereo.model = ShapeModel::Sphere;
+    stereo.covarianceVisionMm2 = Covariance3(0.04, 0.001, -0.002, 0.001, 0.05, 1.0 / 3.0, -0.002, 1.0 / 3.0, 2.25);
+    stereo.covarianceBaseMm2 = Covariance3(2.25, 0, 0, 0, 0.04, -1e-7, 0, -1e-7, 0.05);
+    stereo.rayResidualMm = 0.125;
+    stereo.rayResidualPx = 1.0 / 7.0;
     VisionTarget leftOnly;
     leftOnly.type = "arm, end-effector: IEEM 50%";
     leftOnly.flags = kTargetLeftOnly | kTargetAtBorder;
     leftOnly.centroidLeftPx = cv::Point2d(1.5, 2.5);
     leftOnly.areaLeftPx = 77.75;
+    leftOnly.model = ShapeModel::Composite;
     VisionTarget bare;  // nothing optional set, empty type
     bare.flags = 0xFFFFFFFFu;
     bare.areaRightPx = std::numeric_limits<double>::infinity();

@@ -50,6 +50,13 @@ TEST(VisionTargets, FlagsAreNamedInBitOrder) {
     EXPECT_EQ(targetFlagsText(kTargetStereo | kTargetAtBorder), "stereo,border");
     EXPECT_EQ(targetFlagsText(kTargetRightOnly), "right-only");
     EXPECT_EQ(targetFlagsText(kTargetStereo | kTargetShapeCorrected), "stereo,shape-corrected");
+    EXPECT_EQ(targetFlagsText(kTargetStereo | kTargetWhole | kTargetPoorVisibility), "stereo,whole,poor-visibility");
+    EXPECT_EQ(targetFlagsText(kTargetStereo | kTargetCut | kTargetOccludedLeft | kTargetOccludedRight |
+                              kTargetMerged | kTargetAmbiguous),
+              "stereo,cut,occluded-left,occluded-right,merged,ambiguous");
+    EXPECT_EQ(targetFlagsText(kTargetLeftOnly | (1u << 12) | (1u << 31)), "left-only,bit12,bit31");
+    EXPECT_EQ(toString(ShapeModel::Disc), "disc");
+    EXPECT_EQ(toString(ShapeModel::Composite), "composite");
 }
 
 TEST(DocumentError, CarriesItsFourFactsAndItsKind) {

@@ -68,7 +68,7 @@ TEST(ConfigRead, MinimalDocumentTakesTheDefaults) {
     EXPECT_EQ(c.stereo.right.fc, (std::array<double, 2>{802, 803}));
     EXPECT_FALSE(c.stereo.baseTVision.has_value());
     EXPECT_TRUE(c.lighting == LightingConfig{});
-    EXPECT_EQ(t.shape, TargetShape::Unknown);
+    EXPECT_EQ(t.shape, TargetShape::None);
     EXPECT_TRUE(c.analysis == AnalysisConfig{});
 }
 

@@ -174,7 +174,7 @@ std::vector<Mutation> mutations() {
     add("target[1].window.y", [](AvatarConfig& c) { c.targets.targets[0].window.y = 9; });
     add("target[1].window.width", [](AvatarConfig& c) { c.targets.targets[0].window.width = 999; });
     add("target[1].window.height", [](AvatarConfig& c) { c.targets.targets[0].window.height = 699; });
-    add("target[1].shape", [](AvatarConfig& c) { c.targets.targets[0].shape = TargetShape::Unknown; });
+    add("target[1].shape", [](AvatarConfig& c) { c.targets.targets[0].shape = TargetShape::None; });
     add("target order", [](AvatarConfig& c) { std::swap(c.targets.targets[0], c.targets.targets[1]); });
     add("third target", [](AvatarConfig& c) {
         c.targets.targets.push_back(c.targets.targets[1]);

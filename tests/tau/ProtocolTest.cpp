@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 using namespace avatar;
@@ -24,7 +25,7 @@ VisionTargets sampleTargets() {
     t.visibilityReason = "left: contrast 0.0100 below 0.0200";
     VisionTarget a;
     a.type = "sample";
-    a.flags = kTargetStereo | kTargetShapeCorrected;
+    a.flags = kTargetStereo | kTargetShapeCorrected | kTargetWhole;
     a.positionVisionMm = cv::Point3d(62.0, 83.5, 753.125);
     a.positionBaseMm = cv::Point3d(-1e-300, std::numeric_limits<double>::max(), -0.0);
     a.centroidLeftPx = cv::Point2d(798.68, 680.9);
@@ -32,6 +33,10 @@ VisionTargets sampleTargets() {
     a.areaLeftPx = 9154;
     a.areaRightPx = 9120.5;
     a.matchError = 0.0123;
+    a.model = ShapeModel::Sphere;
+    a.covarianceVisionMm2 = Covariance3(0.04, 0.001, -0.02, 0.001, 0.05, 0.3, -0.02, 0.3, 2.25);
+    a.rayResidualMm = 0.125;
+    a.rayResidualPx = 0.0625;
     VisionTarget b;
     b.type = "arm_marker";
     b.flags = kTargetLeftOnly | kTargetAtBorder;
@@ -214,6 +219,64 @@ TEST(Decoders, RejectShortLongAndOutOfRangePayloadsByName) {
         SCOPED_TRACE(message);
         EXPECT_EQ(errorOf(f), "BAD_PAYLOAD | BAD_PAYLOAD: " + message);
     }
+}
+
+// Version 2's additions to Target, byte for byte: u8 shapeModel, two
+// opt<cov3> (xx, xy, xz, yy, yz, zz), f64 rayResidualMm, f64 rayResidualPx.
+TEST(Protocol, VersionTwoTargetEndsWithModelCovariancesAndResiduals) {
+    VisionTargets t;
+    VisionTarget x;
+    x.model = ShapeModel::Disc;
+    x.covarianceBaseMm2 = Covariance3(1, 2, 3, 2, 4, 5, 3, 5, 6);
+    x.rayResidualMm = 1.0;
+    x.rayResidualPx = -2.0;
+    t.targets = {x};
+    const Bytes b = encode(t);
+    // As in DoublesAreIeeeBigEndian up to areaLeft, then areaLeft, areaRight, matchError.
+    std::size_t at = 8 + 4 + 4 + 12 + 12 + 1 + 4 + 4 + 4 + 4 + 4 + 3 * 8;
+    EXPECT_EQ(b[at], 2);          // disc
+    EXPECT_EQ(b[at + 1], 0);      // no vision covariance
+    EXPECT_EQ(b[at + 2], 1);      // base covariance follows
+    at += 3;
+    const double expected[] = {1, 2, 3, 4, 5, 6, 1.0, -2.0};
+    for (const double v : expected) {
+        std::uint64_t bits;
+        std::memcpy(&bits, &v, 8);
+        Bytes want;
+        for (int k = 7; k >= 0; --k) want.push_back(static_cast<std::uint8_t>(bits >> (8 * k)));
+        EXPECT_EQ(Bytes(b.begin() + static_cast<std::ptrdiff_t>(at), b.begin() + static_cast<std::ptrdiff_t>(at + 8)), want) << v;
+        at += 8;
+    }
+    EXPECT_EQ(at + 4, b.size());  // then only the timing count
+    EXPECT_EQ(decodeTargetData(b), t);
+    Bytes badModel = b;
+    badModel[8 + 4 + 4 + 12 + 12 + 1 + 4 + 4 + 4 + 4 + 4 + 3 * 8] = 4;
+    EXPECT_EQ(errorOf([&] { decodeTargetData(badModel); }),
+              "BAD_PAYLOAD | BAD_PAYLOAD: TARGET_DATA: shapeModel 4 is not 0..3");
+}
+
+// Version 1 (docs/protocol.md, "Version 1"): the old Target layout, flag bits
+// 0-4 only, and a target that is not whole without stereo bit or positions.
+TEST(Protocol, VersionOneSeesOnlyWholeTargetsAsStereo) {
+    VisionTargets t = sampleTargets();
+    VisionTarget partial = t.targets[0];
+    partial.flags = kTargetStereo | kTargetOccludedLeft | kTargetShapeCorrected;
+    t.targets.push_back(partial);
+    const Bytes v1 = encode(t, 1);
+    EXPECT_LT(v1.size(), encode(t, 2).size());
+    const VisionTargets back = decodeTargetData(v1, 1);
+    ASSERT_EQ(back.targets.size(), 3u);
+    EXPECT_EQ(back.targets[0].flags, kTargetStereo | kTargetShapeCorrected);
+    EXPECT_EQ(back.targets[0].positionVisionMm, t.targets[0].positionVisionMm);
+    EXPECT_EQ(back.targets[0].model, ShapeModel::None);
+    EXPECT_FALSE(back.targets[0].covarianceVisionMm2);
+    EXPECT_EQ(back.targets[1].flags, t.targets[1].flags);
+    EXPECT_EQ(back.targets[2].flags, 0u);  // occluded: neither stereo nor shape-corrected for version 1
+    EXPECT_FALSE(back.targets[2].positionVisionMm);
+    EXPECT_FALSE(back.targets[2].positionBaseMm);
+    EXPECT_EQ(back.targets[2].centroidLeftPx, partial.centroidLeftPx);
+    EXPECT_THROW(decodeTargetData(v1, 2), ProtocolError);
+    EXPECT_THROW(encode(t, 3), InvalidArgument);
 }
 
 TEST(Decoders, ForgedCountsAndFlagsCannotMakeTheDecoderAllocateOrMisread) {

@@ -91,7 +91,7 @@ Bytes frame(std::uint16_t type, std::uint32_t request, const Bytes& payload = {}
     return b;
 }
 
-Bytes helloPayload(std::uint16_t version = 1, const std::string& name = "wire-test") {
+Bytes helloPayload(std::uint16_t version = 2, const std::string& name = "wire-test") {
     Bytes p;
     put16(p, version);
     putStr(p, name);
@@ -346,9 +346,15 @@ TEST(TauNet, HelloReplyIsExact) {
     putStr(expected, "TAUNet");
     putStr(expected, "simulation");
     EXPECT_EQ(c.next().bytes, frame(0x8001, 0xDEADBEEF, expected));
-    // A second HELLO is answered like the first.
+    // A second HELLO is answered like the first, in the version it asks for.
     ASSERT_TRUE(c.send(frame(kHello, 2, helloPayload(1, "again"))));
     EXPECT_EQ(c.next().bytes, frame(0x8001, 2, expected));
+    ASSERT_TRUE(c.send(frame(kHello, 3, helloPayload(2, "version two"))));
+    Bytes two;
+    put16(two, 2);
+    putStr(two, "TAUNet");
+    putStr(two, "simulation");
+    EXPECT_EQ(c.next().bytes, frame(0x8001, 3, two));
 }
 
 TEST(TauNet, StatusBeforeTheFirstIterationFieldByField) {
@@ -403,15 +409,18 @@ TEST(TauNet, FirstMessageMustBeHello) {
 
 TEST(TauNet, OtherVersionIsRefusedAndClosed) {
     Daemon d;
-    Client c(d.port());
-    Bytes v2;
-    put16(v2, 2);
-    putStr(v2, "future client");
-    v2.push_back(0x55);  // whatever version 2 adds: the version is checked first
-    ASSERT_TRUE(c.send(frame(kHello, 3, v2)));
-    EXPECT_EQ(c.next().bytes,
-              errorFrame(3, 4, "protocol version 2 is not supported; this server speaks version 1"));
-    EXPECT_TRUE(c.closedWithin(5s));
+    for (const std::uint16_t version : {std::uint16_t{3}, std::uint16_t{0}}) {
+        Client c(d.port());
+        Bytes future;
+        put16(future, version);
+        putStr(future, "future client");
+        future.push_back(0x55);  // whatever that version adds: the version is checked first
+        ASSERT_TRUE(c.send(frame(kHello, 3, future)));
+        EXPECT_EQ(c.next().bytes, errorFrame(3, 4,
+                                             "protocol version " + std::to_string(version) +
+                                                 " is not supported; this server speaks versions 1 to 2"));
+        EXPECT_TRUE(c.closedWithin(5s));
+    }
 }
 
 TEST(TauNet, MalformedHeaderIsAnsweredWithRequestZeroAndClosed) {
@@ -555,6 +564,34 @@ TEST(TauNet, NothingAvailableBeforeTheFirstIteration) {
     EXPECT_EQ(c.request(kTargets, 5).bytes, errorFrame(5, 10, "no target data yet: no iteration has been analysed"));
     EXPECT_EQ(c.request(kImages, 6, imagesPayload(0, 3, 90)).bytes,
               errorFrame(6, 10, "no images yet: no iteration has been analysed"));
+}
+
+// A version-1 client gets the version-1 Target layout (docs/protocol.md,
+// "Version 1"): no model, covariances or residuals, only flag bits 0-4, and a
+// target that is not whole never with the stereo bit or a position.
+TEST(TauNet, VersionOneClientsGetTheVersionOneLayout) {
+    Daemon d;
+    Client c(d.port());
+    ASSERT_TRUE(c.send(frame(kHello, 1, helloPayload(1, "old client"))));
+    ASSERT_EQ(c.next().type, 0x8001);
+    const RawFrame snap = c.request(kSnapshot, 2, u32Payload(20000));
+    ASSERT_EQ(snap.type, 0x8004) << (snap.type == 0xFFFF ? errorMessage(snap) : "");
+    const VisionTargets latest = *d.vision->latestTargets();
+    EXPECT_EQ(snap.payload, tau::encode(latest, 1));
+    EXPECT_THROW(tau::decodeTargetData(snap.payload, 2), tau::ProtocolError);
+    const VisionTargets old = tau::decodeTargetData(snap.payload, 1);
+    ASSERT_EQ(old.targets.size(), latest.targets.size());
+    for (std::size_t i = 0; i < old.targets.size(); ++i) {
+        const VisionTarget& v1 = old.targets[i];
+        const VisionTarget& v2 = latest.targets[i];
+        EXPECT_EQ(v1.flags & ~0x1Fu, 0u) << targetFlagsText(v1.flags);
+        EXPECT_EQ(bool(v1.flags & kTargetStereo), bool(v2.flags & kTargetWhole));
+        EXPECT_EQ(v1.positionVisionMm.has_value(), bool(v2.flags & kTargetWhole));
+        EXPECT_EQ(v1.centroidLeftPx, v2.centroidLeftPx);
+        EXPECT_FALSE(v1.covarianceVisionMm2);
+    }
+    // GET_TARGET_DATA answers in the session's version too.
+    EXPECT_EQ(c.request(kTargets, 3).payload, snap.payload);
 }
 
 TEST(TauNet, SnapshotReturnsTheTargetsAndTargetDataRepeatsThem) {
@@ -788,7 +825,7 @@ TEST(TauNet, ReplayEndsInAcquisitionFailedAndInvalidState) {
     Client c(d.port());
     ASSERT_TRUE(c.send(frame(kHello, 1, helloPayload())));
     Bytes expected;
-    put16(expected, 1);
+    put16(expected, 2);
     putStr(expected, "TAUNet");
     putStr(expected, "replay");
     EXPECT_EQ(c.next().bytes, frame(0x8001, 1, expected));
@@ -1140,7 +1177,7 @@ TEST(TauNetDaemon, SigtermShutsDownCleanly) {
     Client c(port);
     ASSERT_TRUE(c.send(frame(kHello, 1, helloPayload())));
     Bytes expected;
-    put16(expected, 1);
+    put16(expected, 2);
     putStr(expected, "TAUNet");
     putStr(expected, "replay");
     EXPECT_EQ(c.next().bytes, frame(0x8001, 1, expected));

@@ -165,19 +165,19 @@ bool RequestHandler::known(std::uint16_t type) {
            type <= static_cast<std::uint16_t>(MessageType::Status);
 }
 
-std::vector<std::uint8_t> RequestHandler::helloReply(std::uint32_t request) const {
-    return replyFrame(MessageType::Hello, request, encode(HelloReply{kProtocolVersion, serverName_, backend_}));
+std::vector<std::uint8_t> RequestHandler::helloReply(std::uint32_t request, std::uint16_t version) const {
+    return replyFrame(MessageType::Hello, request, encode(HelloReply{version, serverName_, backend_}));
 }
 
-Answer RequestHandler::handle(const Frame& request) const {
+Answer RequestHandler::handle(const Frame& request, std::uint16_t version) const {
     try {
-        return {answer(request), std::nullopt};
+        return {answer(request, version), std::nullopt};
     } catch (...) {
         return errorAnswer(request.header.request, errorReplyFor(std::current_exception(), request.header.type));
     }
 }
 
-std::vector<std::uint8_t> RequestHandler::answer(const Frame& request) const {
+std::vector<std::uint8_t> RequestHandler::answer(const Frame& request, std::uint16_t protocol) const {
     const std::uint32_t id = request.header.request;
     const auto type = static_cast<MessageType>(request.header.type);
     const std::vector<std::uint8_t>& payload = request.payload;
@@ -192,13 +192,13 @@ std::vector<std::uint8_t> RequestHandler::answer(const Frame& request) const {
             return replyFrame(type, id, {});
         case MessageType::TakeSnapshot: {
             const TakeSnapshot m = decodeTakeSnapshot(payload);
-            return replyFrame(type, id, encode(vision_.snapshot(std::chrono::milliseconds(m.timeoutMs))));
+            return replyFrame(type, id, encode(vision_.snapshot(std::chrono::milliseconds(m.timeoutMs)), protocol));
         }
         case MessageType::GetTargetData: {
             decodeEmpty(type, payload);
             const auto targets = vision_.latestTargets();
             if (!targets) throw NotAvailable("no target data yet: no iteration has been analysed");
-            return replyFrame(type, id, encode(*targets));
+            return replyFrame(type, id, encode(*targets, protocol));
         }
         case MessageType::SendConfig: {
             const SendConfig m = decodeSendConfig(payload);

@@ -70,15 +70,16 @@ public:
     /// The reply (the request's reply, or ERROR) to a request other than
     /// HELLO. Never throws: every failure becomes an ERROR whose code
     /// errorReplyFor() gives.
-    Answer handle(const Frame& request) const;
+    /// @p version is the session's protocol version (its HELLO's).
+    Answer handle(const Frame& request, std::uint16_t version) const;
 
-    /// HELLO_REPLY for a HELLO whose version was accepted.
-    std::vector<std::uint8_t> helloReply(std::uint32_t request) const;
+    /// HELLO_REPLY for a HELLO whose version was accepted: that version.
+    std::vector<std::uint8_t> helloReply(std::uint32_t request, std::uint16_t version) const;
 
     const std::string& backend() const { return backend_; }
 
 private:
-    std::vector<std::uint8_t> answer(const Frame& request) const;
+    std::vector<std::uint8_t> answer(const Frame& request, std::uint16_t version) const;
 
     VisionInterface& vision_;
     std::string serverName_;

@@ -228,7 +228,7 @@ private:
         log().debug("%s: %s (request %u, %zu payload bytes)", name_.c_str(), messageName(type).c_str(), id,
                     frame.payload.size());
         if (!detail::RequestHandler::blocks(type)) {
-            detail::Answer answer = server_.handler.handle(frame);
+            detail::Answer answer = server_.handler.handle(frame, version_);
             logError(frame, answer);
             reply(std::move(answer.frame));
             return;
@@ -239,7 +239,7 @@ private:
         cancelTimer();
         auto request = std::make_shared<Frame>(std::move(frame));
         asio::post(server_.workers, [self = shared_from_this(), request] {
-            auto answer = std::make_shared<detail::Answer>(self->server_.handler.handle(*request));
+            auto answer = std::make_shared<detail::Answer>(self->server_.handler.handle(*request, self->version_));
             asio::post(self->executor(), [self, request, answer] {
                 self->busy_ = false;
                 if (self->phase_ == Phase::Closed) return;
@@ -254,10 +254,11 @@ private:
         const std::uint32_t id = frame.header.request;
         // The version comes first and is checked first: a client of another
         // version may well have a different HELLO payload.
-        if (const auto version = helloVersion(frame.payload); version && *version != kProtocolVersion)
+        if (const auto version = helloVersion(frame.payload); version && !protocolVersionSupported(*version))
             return closingError(id, ErrorCode::VersionUnsupported,
                                 "protocol version " + std::to_string(*version) +
-                                    " is not supported; this server speaks version " +
+                                    " is not supported; this server speaks versions " +
+                                    std::to_string(kOldestProtocolVersion) + " to " +
                                     std::to_string(kProtocolVersion));
         Hello m;
         try {
@@ -272,7 +273,8 @@ private:
             log().info("%s is '%s' (protocol version %u)", name_.c_str(), m.clientName.c_str(),
                        static_cast<unsigned>(m.version));
         hello_ = true;
-        reply(server_.handler.helloReply(id));
+        version_ = m.version;
+        reply(server_.handler.helloReply(id, version_));
     }
 
     /// Logs an ERROR answer (and counts BAD_PAYLOAD as a protocol error).
@@ -390,6 +392,7 @@ private:
 
     Phase phase_{Phase::Open};
     bool hello_{false};
+    std::uint16_t version_{kProtocolVersion};  ///< the session's, from its HELLO
     bool reading_{false};
     bool writing_{false};
     bool busy_{false};  ///< a blocking request is on the worker pool

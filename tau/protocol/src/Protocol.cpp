@@ -1,6 +1,8 @@
 #include <avatar/tau/Protocol.h>
 
+#include <array>
 #include <cstring>
+#include <utility>
 
 namespace avatar::tau {
 namespace {
@@ -352,7 +354,29 @@ std::vector<std::uint8_t> encode(const ErrorReply& m) {
     w.str(m.message);
     return w.take();
 }
-std::vector<std::uint8_t> encode(const VisionTargets& m) {
+namespace {
+
+/// The upper triangle of a covariance, row by row: xx, xy, xz, yy, yz, zz.
+constexpr std::array<std::pair<int, int>, 6> kCovarianceEntries{
+    {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}}};
+
+/// What a version-1 client may see of a target (docs/protocol.md, "Version 1").
+VisionTarget versionOneView(const VisionTarget& t) {
+    VisionTarget v = t;
+    v.flags &= kTargetStereo | kTargetLeftOnly | kTargetRightOnly | kTargetAtBorder | kTargetShapeCorrected;
+    if (!(t.flags & kTargetWhole)) {
+        v.flags &= ~static_cast<std::uint32_t>(kTargetStereo | kTargetShapeCorrected);
+        v.positionVisionMm.reset();
+        v.positionBaseMm.reset();
+    }
+    return v;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode(const VisionTargets& m, std::uint16_t version) {
+    if (!protocolVersionSupported(version))
+        throw InvalidArgument("encode(TargetData): protocol version " + std::to_string(version) + " is not spoken");
     Writer w;
     w.u64(m.iteration);
     w.u32(m.acquisition.group);
@@ -362,7 +386,8 @@ std::vector<std::uint8_t> encode(const VisionTargets& m) {
     w.u8(static_cast<std::uint8_t>(m.visibility == Visibility::Good ? 1 : m.visibility == Visibility::Poor ? 2 : 0));
     w.str(m.visibilityReason);
     w.u32(static_cast<std::uint32_t>(m.targets.size()));
-    for (const VisionTarget& t : m.targets) {
+    for (const VisionTarget& target : m.targets) {
+        const VisionTarget t = version == 1 ? versionOneView(target) : target;
         w.str(t.type);
         w.u32(t.flags);
         w.opt(t.positionVisionMm, [&](const cv::Point3d& p) { w.point3(p); });
@@ -372,6 +397,15 @@ std::vector<std::uint8_t> encode(const VisionTargets& m) {
         w.f64(t.areaLeftPx);
         w.f64(t.areaRightPx);
         w.f64(t.matchError);
+        if (version == 1) continue;
+        w.u8(static_cast<std::uint8_t>(t.model));
+        const auto covariance = [&](const Covariance3& c) {
+            for (const auto& [i, j] : kCovarianceEntries) w.f64(c(i, j));
+        };
+        w.opt(t.covarianceVisionMm2, covariance);
+        w.opt(t.covarianceBaseMm2, covariance);
+        w.f64(t.rayResidualMm);
+        w.f64(t.rayResidualPx);
     }
     w.u32(static_cast<std::uint32_t>(m.timings.size()));
     for (const StageTiming& s : m.timings) {
@@ -508,7 +542,9 @@ ErrorReply decodeErrorReply(const std::vector<std::uint8_t>& payload) {
     r.end();
     return m;
 }
-VisionTargets decodeTargetData(const std::vector<std::uint8_t>& payload) {
+VisionTargets decodeTargetData(const std::vector<std::uint8_t>& payload, std::uint16_t version) {
+    if (!protocolVersionSupported(version))
+        throw InvalidArgument("decodeTargetData: protocol version " + std::to_string(version) + " is not spoken");
     Reader r(payload, "TARGET_DATA");
     VisionTargets m;
     m.iteration = r.u64("iteration");
@@ -520,8 +556,9 @@ VisionTargets decodeTargetData(const std::vector<std::uint8_t>& payload) {
     if (visibility > 2) r.fail("visibility " + std::to_string(visibility) + " is not 0..2");
     m.visibility = visibility == 1 ? Visibility::Good : visibility == 2 ? Visibility::Poor : Visibility::Unknown;
     m.visibilityReason = r.str("visibilityReason");
-    // A target is at least 4 (type) + 4 (flags) + 4 (optional flags) + 24 bytes.
-    const std::uint32_t targets = r.count("targetCount", 36);
+    // A target is at least 4 (type) + 4 (flags) + 4 (optional flags) + 24
+    // bytes; version 2 adds 1 (model) + 2 (optional flags) + 16.
+    const std::uint32_t targets = r.count("targetCount", version == 1 ? 36 : 55);
     m.targets.reserve(targets);
     for (std::uint32_t i = 0; i < targets; ++i) {
         VisionTarget t;
@@ -534,6 +571,20 @@ VisionTargets decodeTargetData(const std::vector<std::uint8_t>& payload) {
         t.areaLeftPx = r.f64("areaLeft");
         t.areaRightPx = r.f64("areaRight");
         t.matchError = r.f64("matchError");
+        if (version >= 2) {
+            const std::uint8_t model = r.u8("shapeModel");
+            if (model > 3) r.fail("shapeModel " + std::to_string(model) + " is not 0..3");
+            t.model = static_cast<ShapeModel>(model);
+            const auto covariance = [&](const char* field) {
+                Covariance3 c;
+                for (const auto& [a, b] : kCovarianceEntries) c(a, b) = c(b, a) = r.f64(field);
+                return c;
+            };
+            if (r.present("covarianceVision")) t.covarianceVisionMm2 = covariance("covarianceVision");
+            if (r.present("covarianceBase")) t.covarianceBaseMm2 = covariance("covarianceBase");
+            t.rayResidualMm = r.f64("rayResidualMm");
+            t.rayResidualPx = r.f64("rayResidualPx");
+        }
         m.targets.push_back(std::move(t));
     }
     const std::uint32_t timings = r.count("timingCount", 12);

@@ -2,7 +2,9 @@
 
 #include <avatar/common/Error.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <fstream>
@@ -49,10 +51,25 @@ void targetLines(const VisionTargets& t, const char* label, std::vector<std::str
                          ull(t.iteration), t.acquisition.group, t.acquisition.member, t.targets.size(),
                          visibilityText(t.visibility), t.visibilityReason.empty() ? "" : ": ",
                          t.visibilityReason.c_str()));
-    for (const VisionTarget& v : t.targets)
-        out.push_back(format("  %s [%s] vision %s base %s L %s R %s", v.type.c_str(), targetFlagsText(v.flags).c_str(),
-                             point3(v.positionVisionMm).c_str(), point3(v.positionBaseMm).c_str(),
-                             point2(v.centroidLeftPx).c_str(), point2(v.centroidRightPx).c_str()));
+    for (const VisionTarget& v : t.targets) {
+        std::string line = format("  %s [%s] vision %s base %s L %s R %s", v.type.c_str(),
+                                  targetFlagsText(v.flags).c_str(), point3(v.positionVisionMm).c_str(),
+                                  point3(v.positionBaseMm).c_str(), point2(v.centroidLeftPx).c_str(),
+                                  point2(v.centroidRightPx).c_str());
+        // What a stereo target's number is worth: the model it came from, the
+        // standard deviation of each coordinate and how well the rays met.
+        if (v.flags & kTargetStereo) {
+            line += format(" model %s", std::string(toString(v.model)).c_str());
+            if (v.covarianceVisionMm2) {
+                const Covariance3& c = *v.covarianceVisionMm2;
+                line += format(" sigma (%.2f, %.2f, %.2f) mm", std::sqrt(std::max(c(0, 0), 0.0)),
+                               std::sqrt(std::max(c(1, 1), 0.0)), std::sqrt(std::max(c(2, 2), 0.0)));
+            }
+            line += format(" rays %.2f mm %.2f px", v.rayResidualMm, v.rayResidualPx);
+        }
+        if ((v.flags & kTargetStereo) && !(v.flags & kTargetWhole)) line += "  NOT WHOLE";
+        out.push_back(std::move(line));
+    }
 }
 
 /// An iteration as the screen shows it: the number, and "(stale)" when a newer one exists.

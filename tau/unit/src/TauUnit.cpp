@@ -217,6 +217,9 @@ public:
         } catch (const ProtocolError& e) {
             connectionFailed("HELLO", std::string("reply does not follow the protocol: ") + e.what());
         }
+        if (reply.version != kProtocolVersion)
+            connectionFailed("HELLO", "the server answered protocol version " + std::to_string(reply.version) +
+                                          " to a version " + std::to_string(kProtocolVersion) + " HELLO");
         hello = reply;
         log().infoStream() << "connected to " << reply.serverName << " at " << endpoint() << " (protocol "
                            << reply.version << ", backend " << reply.backend << ")";

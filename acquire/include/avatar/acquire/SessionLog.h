@@ -28,8 +28,12 @@ namespace avatar {
 inline constexpr const char* kSessionLogFileName = "session.log";
 /// The first word of a session log's header line.
 inline constexpr const char* kSessionLogFormatName = "AVATAR-SESSION-LOG";
-/// The format version this code writes and the only one it reads.
-inline constexpr int kSessionLogVersion = 1;
+/// The format version this code writes.
+inline constexpr int kSessionLogVersion = 2;
+/// The oldest version it reads. Version 1 records targets without their shape
+/// model, covariances and ray residuals, made by an analysis that did not
+/// judge completeness (its targets never carry kTargetWhole).
+inline constexpr int kOldestSessionLogVersion = 1;
 
 /// How an image file stores its samples.
 enum class Compression {
@@ -137,7 +141,7 @@ public:
 
     const std::filesystem::path& directory() const { return directory_; }
     const std::filesystem::path& logPath() const { return logPath_; }
-    /// The version in the header (always kSessionLogVersion).
+    /// The version in the header (kOldestSessionLogVersion..kSessionLogVersion).
     int version() const { return version_; }
 
     /// Every line after the header, in file order.

@@ -20,6 +20,11 @@ struct StereoPoint {
     cv::Point3d rightMm;  ///< XR = R XL + T: right camera frame
     /// base_T_vision XL; set when the geometry has a registration.
     std::optional<cv::Point3d> baseMm;
+    /// Distance between the two rays at their closest approach, |X1 - X2|.
+    double rayGapMm{0.0};
+    /// RMS distance of XL's projections from the two measured points, in
+    /// undistorted pixels of each camera (normalised distance x fc).
+    double reprojectionPx{0.0};
 };
 
 /// Triangulates matched pixels with one stereo calibration. Immutable after
@@ -41,6 +46,24 @@ public:
     /// for points that are not pixels (e.g. a sphere's silhouette-cone axis).
     std::optional<StereoPoint> triangulateNormalized(const cv::Point2d& leftNormalized,
                                                      const cv::Point2d& rightNormalized) const;
+
+    /// First-order covariance of leftMm (mm^2) for measured points with the
+    /// 2x2 covariances @p covLeft and @p covRight: in normalised coordinates
+    /// for covarianceNormalized(), in pixels for covariancePixels() (the
+    /// normalisation's Jacobian included). Numeric Jacobian of the midpoint
+    /// triangulation by central differences. std::nullopt where the rays are
+    /// (nearly) parallel.
+    std::optional<cv::Matx33d> covarianceNormalized(const cv::Point2d& leftNormalized,
+                                                    const cv::Point2d& rightNormalized,
+                                                    const cv::Matx22d& covLeft,
+                                                    const cv::Matx22d& covRight) const;
+    std::optional<cv::Matx33d> covariancePixels(const cv::Point2d& leftPx, const cv::Point2d& rightPx,
+                                                const cv::Matx22d& covLeftPx,
+                                                const cv::Matx22d& covRightPx) const;
+
+    /// The covariance of base_T_vision X for a vision-frame covariance:
+    /// R Cov R^T. Throws avatar::InvalidArgument without a registration.
+    cv::Matx33d covarianceToBase(const cv::Matx33d& visionCovariance) const;
 
     /// True when the geometry carries base_T_vision.
     bool hasRegistration() const { return geometry_.baseTVision.has_value(); }

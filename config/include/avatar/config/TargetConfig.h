@@ -46,10 +46,16 @@ struct HsvRanges {
     }
 };
 
-/// What is known of a target's 3-D shape. A sphere's silhouette centroid is
-/// not the projection of its centre; knowing the shape lets triangulation
-/// remove that bias (see docs/architecture.md).
-enum class TargetShape { Unknown, Sphere };
+/// The shape model of a target type (docs/config.md, <shape>): how its
+/// silhouettes are checked for completeness and its position computed.
+/// - None: nothing known; the centroids are triangulated.
+/// - Sphere: each silhouette must fit a sphere's (the image of a circular
+///   cone); the cone axes are triangulated, which removes the centroid's bias.
+/// - Disc: a flat circle; each silhouette must fit an ellipse, and the image
+///   of the circle's centre (not the ellipse's centre) is triangulated.
+/// - Composite: a rigid object of several parts (the duck); the centroids are
+///   triangulated and the two views checked for consistency.
+enum class TargetShape { None, Sphere, Disc, Composite };
 
 /// One kind of thing to find (e.g. "sample", "arm_marker").
 struct TargetType {
@@ -67,7 +73,7 @@ struct TargetType {
     Range aspectRatio{0.0, 1e9};  ///< bounding-box width / height
     Range areaRatio{0.0, 1.0};  ///< area / bounding-box area, within [0, 1]
     SearchWindow window;        ///< where to look
-    TargetShape shape{TargetShape::Unknown};
+    TargetShape shape{TargetShape::None};
 
     bool operator==(const TargetType& o) const {
         return name == o.name && filter == o.filter && redGreen == o.redGreen &&

@@ -1,6 +1,6 @@
 #pragma once
 /// @file Protocol.h
-/// The TAU protocol, version 1 (docs/protocol.md): frames, messages and their
+/// The TAU protocol, version 2 (docs/protocol.md; version 1 is still served): frames, messages and their
 /// byte encodings, shared by TAUNet and TAUUnit. Pure data and functions: no
 /// sockets, no threads, no analysis types beyond the plain result records.
 ///
@@ -18,7 +18,15 @@
 
 namespace avatar::tau {
 
-inline constexpr std::uint16_t kProtocolVersion = 1;
+/// The version this build speaks by default (TAUUnit asks for it).
+inline constexpr std::uint16_t kProtocolVersion = 2;
+/// The oldest version a server still serves. Version 1 differs in the Target
+/// record only (docs/protocol.md, "Version 1").
+inline constexpr std::uint16_t kOldestProtocolVersion = 1;
+/// True for the versions this build speaks.
+constexpr bool protocolVersionSupported(std::uint16_t version) {
+    return version >= kOldestProtocolVersion && version <= kProtocolVersion;
+}
 inline constexpr std::size_t kHeaderSize = 12;
 inline constexpr std::uint32_t kMaxRequestPayload = 1u << 20;   ///< 1 MiB
 inline constexpr std::uint32_t kMaxReplyPayload = 64u << 20;    ///< 64 MiB
@@ -197,8 +205,12 @@ std::vector<std::uint8_t> encode(const GetImages& m);
 std::vector<std::uint8_t> encode(const ImagesReply& m);
 std::vector<std::uint8_t> encode(const StatusReply& m);
 std::vector<std::uint8_t> encode(const ErrorReply& m);
-/// TargetData: VisionTargets minus nothing: every field of docs/protocol.md.
-std::vector<std::uint8_t> encode(const VisionTargets& m);
+/// TargetData: every field of docs/protocol.md in the layout of @p version.
+/// Version 1 has no shape model, covariances or ray residuals and knows flag
+/// bits 0-4 only; a target that is not whole (kTargetWhole clear) goes to a
+/// version-1 client without the stereo bit and without positions, because
+/// such a client reads the stereo bit as "position valid".
+std::vector<std::uint8_t> encode(const VisionTargets& m, std::uint16_t version = kProtocolVersion);
 
 /// The size of encode(@p m) in bytes, computed without encoding: a server can
 /// refuse a reply above kMaxReplyPayload before building it.
@@ -220,7 +232,8 @@ GetImages decodeGetImages(const std::vector<std::uint8_t>& payload);
 ImagesReply decodeImagesReply(const std::vector<std::uint8_t>& payload);
 StatusReply decodeStatusReply(const std::vector<std::uint8_t>& payload);
 ErrorReply decodeErrorReply(const std::vector<std::uint8_t>& payload);
-VisionTargets decodeTargetData(const std::vector<std::uint8_t>& payload);
+VisionTargets decodeTargetData(const std::vector<std::uint8_t>& payload,
+                               std::uint16_t version = kProtocolVersion);
 /// Requests without fields: throws BadPayload unless @p payload is empty.
 void decodeEmpty(MessageType type, const std::vector<std::uint8_t>& payload);
 
