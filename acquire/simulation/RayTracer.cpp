@@ -90,7 +90,15 @@ World buildWorld(const Scene& scene, const std::optional<RigidTransform>& baseTV
         truth.centreLeftMm = {t.centreMm[0], t.centreMm[1], t.centreMm[2]};
         truths.push_back(truth);
         switch (t.shape) {
-            case Shape::Sphere: w.prims.push_back(sphere(object, 0, t.centreMm, t.radiusMm, t.albedo)); break;
+            case Shape::Sphere:
+                w.prims.push_back(sphere(object, 0, t.centreMm, t.radiusMm, t.albedo));
+                if (t.secondAlbedo) {
+                    w.prims.back().twoTone = true;
+                    w.prims.back().split = t.splitNormal / cv::norm(t.splitNormal);
+                    w.prims.back().splitOffset = t.splitOffsetMm;
+                    w.prims.back().albedo2 = *t.secondAlbedo;
+                }
+                break;
             case Shape::Disc: {
                 Prim p;
                 p.kind = PrimKind::Disc;
@@ -99,6 +107,12 @@ World buildWorld(const Scene& scene, const std::optional<RigidTransform>& baseTV
                 p.radius = t.radiusMm;
                 p.normal = t.normal / cv::norm(t.normal);
                 p.albedo = t.albedo;
+                if (t.secondAlbedo) {
+                    p.twoTone = true;
+                    p.split = t.splitNormal / cv::norm(t.splitNormal);
+                    p.splitOffset = t.splitOffsetMm;
+                    p.albedo2 = *t.secondAlbedo;
+                }
                 w.prims.push_back(p);
                 break;
             }
@@ -240,6 +254,10 @@ double intersect(const Prim& p, const cv::Vec3d& o, const cv::Vec3d& d, int& par
 void surfaceAt(const World& w, const Prim& p, const cv::Vec3d& x, const cv::Vec3d& d, cv::Vec3d& n,
                Rgb& albedo, int& part) {
     albedo = p.albedo;
+    if (p.twoTone && p.split.dot(x - p.centre) > p.splitOffset) {
+        albedo = p.albedo2;
+        part = 1;
+    }
     switch (p.kind) {
         case PrimKind::Sphere: n = (x - p.centre) / p.radius; break;
         case PrimKind::Disc: n = p.normal; break;
@@ -326,8 +344,8 @@ Sample Tracer::trace(double u, double v, bool shade) const {
     const double t = targetFirst ? tTarget : tOther;
     s.sig.object = hit->object;
     s.sig.part = hit->part;
-    // Only a board's part (checker colour) depends on where it is hit.
-    if (!shade && hit->kind != PrimKind::Board) return s;
+    // Only a board's and a two-tone target's part depends on where it is hit.
+    if (!shade && hit->kind != PrimKind::Board && !hit->twoTone) return s;
     const cv::Vec3d x = o + t * d;
     cv::Vec3d n;
     Rgb albedo;

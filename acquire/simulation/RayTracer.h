@@ -31,6 +31,11 @@ struct Prim {
     cv::Vec3d half;        ///< box half sizes; board: x/y extent (min in half, max in extentMax)
     cv::Vec3d extentMax;
     Rgb albedo{0, 0, 0};
+    /// Two-tone sphere or disc: albedo2 (part 1) where split . (x - centre) > 0.
+    bool twoTone{false};
+    cv::Vec3d split;       ///< unit
+    double splitOffset{0.0};
+    Rgb albedo2{0, 0, 0};
 };
 
 /// Signature of what a sample sees; pixels whose samples agree are not supersampled.

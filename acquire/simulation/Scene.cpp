@@ -146,6 +146,10 @@ void checkTarget(const Context& c, const TargetSpec& t) {
         c.fail("normal", "the disc normal must not be zero");
     checkRgb(c, "albedo", t.albedo, 1.0);
     checkRgb(c, "beakAlbedo", t.beakAlbedo, 1.0);
+    if (t.secondAlbedo) {
+        checkRgb(c, "secondAlbedo", *t.secondAlbedo, 1.0);
+        if (!(cv::norm(t.splitNormal) > 1e-12)) c.fail("splitNormal", "the split normal must not be zero");
+    }
 }
 
 void checkArmMarker(const Context& c, const ArmMarker& a) {
@@ -423,6 +427,11 @@ Scene parseScene(const tinyxml2::XMLElement& root, const std::string& source) {
             if (t.shape == Shape::Duck || t.shape == Shape::Box) t.om = r.array3("om", t.om);
             t.albedo = r.array3("albedo", t.albedo, true);
             if (t.shape == Shape::Duck) t.beakAlbedo = r.array3("beakAlbedo", t.beakAlbedo);
+            if (t.shape == Shape::Sphere || t.shape == Shape::Disc) {
+                if (r.raw("secondAlbedo")) t.secondAlbedo = r.array3("secondAlbedo", {0, 0, 0}, true);
+                t.splitNormal = r.vec3("splitNormal", t.splitNormal);
+                t.splitOffsetMm = r.real("splitOffsetMm", t.splitOffsetMm);
+            }
             r.finish();
             noChildren(source, *e, c.path);
             checkName(c, t.name, names);

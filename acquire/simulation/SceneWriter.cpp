@@ -95,6 +95,8 @@ std::string writeSceneString(const Scene& scene) {
         if (t.shape == Shape::Duck || t.shape == Shape::Box) w.attr("om", t.om);
         w.attr("albedo", t.albedo);
         if (t.shape == Shape::Duck) w.attr("beakAlbedo", t.beakAlbedo);
+        if (t.secondAlbedo)
+            w.attr("secondAlbedo", *t.secondAlbedo).attr("splitNormal", t.splitNormal).attr("splitOffsetMm", t.splitOffsetMm);
         w.close();
     }
     for (const ArmMarker& a : scene.armMarkers)

@@ -171,25 +171,26 @@ private:
     std::size_t types_;
 };
 
-/// Triangulation of every match, single-image features reported as such (thesis 3.4.2, 3.6.2).
+/// Triangulation of every match with its completeness judged, single-image
+/// features reported as such (thesis 3.4.2, 3.6.2; TargetAssembly.h).
 class TriangulateStage final : public ProcessStereoImagePair {
 public:
     explicit TriangulateStage(const StageContext& c)
-        : assembler_(c.config.stereo, c.config.analysis), types_(c.config.targets.targets) {}
+        : assembler_(c.config), types_(c.config.targets.targets.size()) {}
     std::string_view name() const override { return "triangulate"; }
     std::vector<std::string_view> needs() const override { return {"match"}; }
     void processPair(AnalysisFrame& frame) override {
-        const ImageWork& L = frame.at(Side::Left);
-        const ImageWork& R = frame.at(Side::Right);
-        requirePerType(frame.matches.size(), types_.size(), name(), "match lists");
-        for (std::size_t t = 0; t < types_.size(); ++t)
-            assembler_.assemble(types_[t], L.features[t], R.features[t], L.masks[t], R.masks[t], frame.matches[t],
-                                frame.result.targets);
+        requirePerType(frame.matches.size(), types_, name(), "match lists");
+        for (const Side side : {Side::Left, Side::Right}) {
+            requirePerType(frame.at(side).masks.size(), types_, name(), "masks");
+            requirePerType(frame.at(side).features.size(), types_, name(), "feature lists");
+        }
+        assembler_.assemble(frame);
     }
 
 private:
     detail::TargetAssembler assembler_;
-    std::vector<TargetType> types_;
+    std::size_t types_;
 };
 
 /// Visibility measures and verdict (thesis 3.6.1).
@@ -207,6 +208,8 @@ public:
             judgeVisibility(frame.at(Side::Left).visibility, frame.at(Side::Right).visibility, limits_);
         frame.result.visibility = verdict.visibility;
         frame.result.visibilityReason = verdict.reason;
+        if (verdict.visibility == Visibility::Poor)
+            for (VisionTarget& t : frame.result.targets) t.flags |= kTargetPoorVisibility;
     }
 
 private:

@@ -1,79 +1,502 @@
 #include "TargetAssembly.h"
 
 #include "NinePointTriangulation.h"
+#include "ShapeFit.h"
+#include "Silhouette.h"
 
-#include <avatar/analyze/SphereSilhouette.h>
+#include <avatar/analyze/ImageFeatureLocator.h>
+#include <avatar/common/CameraModel.h>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
 #include <optional>
 
 namespace avatar::detail {
 
-TargetAssembler::TargetAssembler(const StereoSystemConfig& stereo, const AnalysisConfig& analysis)
-    : calculator_(stereoGeometry(stereo)),
-      weighted_(analysis.centroid == CentroidMode::IntensityWeighted),
-      ninePoints_(analysis.triangulation == TriangulationMode::NinePoints) {}
+namespace {
 
-void TargetAssembler::assemble(const TargetType& type, const std::vector<Feature>& left,
-                               const std::vector<Feature>& right, const cv::Mat& leftMask, const cv::Mat& rightMask,
-                               const std::vector<FeatureMatch>& matches, std::vector<VisionTarget>& out) const {
-    std::vector<bool> usedLeft(left.size()), usedRight(right.size());
-    for (const FeatureMatch& m : matches) {
-        const Feature& fl = left[static_cast<std::size_t>(m.left)];
-        const Feature& fr = right[static_cast<std::size_t>(m.right)];
-        usedLeft[static_cast<std::size_t>(m.left)] = true;
-        usedRight[static_cast<std::size_t>(m.right)] = true;
-        out.push_back(stereoTarget(type, fl, fr, leftMask, rightMask, m));
+struct Member {
+    std::size_t type;
+    std::size_t feature;
+};
+
+/// Disjoint sets over indices.
+class Sets {
+public:
+    explicit Sets(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), std::size_t{0}); }
+    std::size_t find(std::size_t i) {
+        while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+        return i;
     }
-    for (std::size_t i = 0; i < usedLeft.size(); ++i)
-        if (!usedLeft[i]) out.push_back(singleTarget(type, left[i], Side::Left));
-    for (std::size_t i = 0; i < usedRight.size(); ++i)
-        if (!usedRight[i]) out.push_back(singleTarget(type, right[i], Side::Right));
+    void join(std::size_t a, std::size_t b) { parent_[find(a)] = find(b); }
+
+private:
+    std::vector<std::size_t> parent_;
+};
+
+cv::Rect grown(const cv::Rect& r, int by) { return {r.x - by, r.y - by, r.width + 2 * by, r.height + 2 * by}; }
+
+/// Whether two features of different masks come within 2 px of each other.
+bool touching(const cv::Mat& maskA, const Feature& a, const cv::Mat& maskB, const Feature& b) {
+    const cv::Rect image(0, 0, maskA.cols, maskA.rows);
+    const cv::Rect region = grown(a.box, 2) & grown(b.box, 2) & image;
+    if (region.empty()) return false;
+    cv::Mat near;
+    cv::dilate(maskA(region), near, cv::Mat::ones(5, 5, CV_8UC1));
+    return cv::countNonZero(near & maskB(region)) > 0;
 }
 
-VisionTarget TargetAssembler::stereoTarget(const TargetType& type, const Feature& fl, const Feature& fr,
-                                           const cv::Mat& maskL, const cv::Mat& maskR,
-                                           const FeatureMatch& m) const {
-    VisionTarget target;
-    target.type = type.name;
-    target.flags = kTargetStereo;
-    if (fl.touchesBorder || fr.touchesBorder) target.flags |= kTargetAtBorder;
-    target.centroidLeftPx = point(fl);
-    target.centroidRightPx = point(fr);
-    target.areaLeftPx = fl.area;
-    target.areaRightPx = fr.area;
-    target.matchError = m.shapeError;
-
-    std::optional<StereoPoint> p;
-    if (type.shape == TargetShape::Sphere && !(target.flags & kTargetAtBorder)) {
-        const StereoGeometry& stereo = calculator_.geometry();
-        const auto dl = sphereCentreDirection(stereo.left, featureOutline(maskL, fl));
-        const auto dr = sphereCentreDirection(stereo.right, featureOutline(maskR, fr));
-        if (dl && dr) {
-            p = calculator_.triangulateNormalized(*dl, *dr);
-            if (p) target.flags |= kTargetShapeCorrected;
+/// The geometry of a region of a mask (its features' union): box, area,
+/// centroid and the first pixel of its top row (the flood seed).
+Feature regionFeature(const cv::Mat& mask, const cv::Rect& within) {
+    Feature f;
+    int x0 = within.x + within.width, y0 = within.y + within.height, x1 = -1, y1 = -1;
+    double sx = 0, sy = 0;
+    for (int y = within.y; y < within.y + within.height; ++y) {
+        const std::uint8_t* row = mask.ptr<std::uint8_t>(y);
+        for (int x = within.x; x < within.x + within.width; ++x) {
+            if (!row[x]) continue;
+            if (f.area == 0) f.boundary[kTopLeft] = {x, y};
+            ++f.area;
+            sx += x;
+            sy += y;
+            x0 = std::min(x0, x);
+            x1 = std::max(x1, x);
+            y0 = std::min(y0, y);
+            y1 = std::max(y1, y);
         }
     }
-    if (!p && ninePoints_) p = triangulateNinePoints(calculator_, fl, fr, point(fl), point(fr));
-    if (!p) p = calculator_.triangulate(point(fl), point(fr));
-    if (p) {
-        target.positionVisionMm = p->leftMm;
-        target.positionBaseMm = p->baseMm;
-    } else {
-        target.flags &= ~static_cast<std::uint32_t>(kTargetStereo);  // parallel rays: no position
-    }
-    return target;
+    if (f.area == 0) return f;
+    f.box = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+    f.centroid = f.weightedCentroid = {sx / f.area, sy / f.area};
+    f.touchesBorder = x0 == 0 || y0 == 0 || x1 == mask.cols - 1 || y1 == mask.rows - 1;
+    return f;
 }
 
-VisionTarget TargetAssembler::singleTarget(const TargetType& type, const Feature& f, Side side) const {
-    VisionTarget target;
+/// A view's measurements and the verdict on its completeness.
+struct ViewVerdict {
+    Silhouette silhouette;
+    EllipseFit fit;
+    RoundCompleteness round;
+    bool roundFits{false};  ///< a complete ellipse
+    /// The ellipse is known well enough to locate the target by its model,
+    /// complete or not: most of it is supported and the rest follows it.
+    bool modelUsable{false};
+    bool cut{false}, hidden{false}, merged{false};
+    bool contact{false};    ///< touches another target (to be judged by depth)
+    bool touchesEdge{false};
+};
+
+cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalised) {
+    return normalizedToPixel(camera, distortNormalized(camera, normalised));
+}
+
+}  // namespace
+
+/// One object of one image: a feature, or touching features of different
+/// types that make one round object (split between two filters).
+struct TargetAssembler::Object {
+    std::vector<Member> members;
+    Feature feature;     ///< the object's geometry
+    cv::Mat unionMask;   ///< full-image mask of a compound; empty for one feature
+    std::size_t type{0};      ///< the type holding most of it
+    double typeShare{1.0};    ///< that type's share of its area
+};
+
+TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits limits)
+    : config_(config),
+      limits_(limits),
+      calculator_(stereoGeometry(config.stereo)),
+      rightRLeft_(rotationMatrix(rightTLeft(config.stereo))),
+      ninePoints_(config.analysis.triangulation == TriangulationMode::NinePoints) {}
+
+std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFrame& frame, Side side) const {
+    const ImageWork& w = frame.at(side);
+    const auto& types = config_.targets.targets;
+    std::vector<Member> nodes;
+    for (std::size_t t = 0; t < w.features.size(); ++t)
+        for (std::size_t i = 0; i < w.features[t].size(); ++i) nodes.push_back({t, i});
+    Sets sets(nodes.size());
+    bool anyContact = false;
+    for (std::size_t a = 0; a < nodes.size(); ++a)
+        for (std::size_t b = a + 1; b < nodes.size(); ++b) {
+            if (nodes[a].type == nodes[b].type) continue;
+            const Feature& fa = w.features[nodes[a].type][nodes[a].feature];
+            const Feature& fb = w.features[nodes[b].type][nodes[b].feature];
+            if ((grown(fa.box, 2) & grown(fb.box, 2)).empty()) continue;
+            if (touching(w.masks[nodes[a].type], fa, w.masks[nodes[b].type], fb)) {
+                sets.join(a, b);
+                anyContact = true;
+            }
+        }
+    std::map<std::size_t, std::vector<Member>> groups;
+    for (std::size_t a = 0; a < nodes.size(); ++a) groups[anyContact ? sets.find(a) : a].push_back(nodes[a]);
+
+    std::vector<Object> out;
+    for (auto& [root, members] : groups) {
+        if (members.size() == 1) {
+            Object o;
+            o.members = members;
+            o.feature = w.features[members[0].type][members[0].feature];
+            o.type = members[0].type;
+            out.push_back(std::move(o));
+            continue;
+        }
+        // Touching features of different types: one object split between
+        // filters when the union is one silhouette: round types must fit
+        // their ellipse; types without a model cannot tell, and stay one
+        // (ambiguous) object rather than two targets that may be halves.
+        cv::Rect box;
+        std::map<std::size_t, double> area;
+        for (const Member& m : members) {
+            const Feature& f = w.features[m.type][m.feature];
+            box = box.empty() ? f.box : (box | f.box);
+            area[m.type] += f.area;
+        }
+        const cv::Rect image(0, 0, w.image.cols, w.image.rows);
+        const cv::Rect region = grown(box, 3) & image;
+        cv::Mat unionMask = cv::Mat::zeros(w.image.rows, w.image.cols, CV_8UC1);
+        for (const Member& m : members) {
+            // The feature's own pixels only (the mask may hold others in the box).
+            const Feature& f = w.features[m.type][m.feature];
+            cv::Mat part = cv::Mat::zeros(region.size(), CV_8UC1);
+            cv::Mat src = w.masks[m.type](region).clone();
+            cv::floodFill(src, f.boundary[kTopLeft] - region.tl(), cv::Scalar(128), nullptr, cv::Scalar(),
+                          cv::Scalar(), 8);
+            part.setTo(cv::Scalar(255), src == 128);
+            unionMask(region) |= part;
+        }
+        cv::morphologyEx(unionMask(region), unionMask(region), cv::MORPH_CLOSE, cv::Mat::ones(5, 5, CV_8UC1));
+        Object whole;
+        whole.members = members;
+        whole.unionMask = unionMask;
+        whole.feature = regionFeature(unionMask, region);
+        double total = 0.0, best = -1.0;
+        for (const auto& [t, a] : area) {
+            total += a;
+            if (a > best) {
+                best = a;
+                whole.type = t;
+            }
+        }
+        whole.typeShare = total > 0.0 ? best / total : 0.0;
+        bool round = true;
+        for (const auto& [t, a] : area) round = round && types[t].shape != TargetShape::None &&
+                                                types[t].shape != TargetShape::Composite;
+        bool oneObject = !round;
+        if (round) {
+            const CameraIntrinsics& camera = side == Side::Left ? config_.stereo.left : config_.stereo.right;
+            const Silhouette s = measureSilhouette(w.image, w.masks, static_cast<std::size_t>(-1), whole.feature,
+                                                   image, limits_.centroidCorrelation, unionMask);
+            const EllipseFit fit = fitEllipse(camera, s.outline, limits_.minFitThresholdPx);
+            if (fit.ok) {
+                const RoundCompleteness c = roundCompleteness(
+                    camera, fit, s.outline,
+                    [&](const cv::Point2d& px, bool& own) { return s.probe(px, image.size(), image, own); });
+                oneObject = c.missing + c.hidden <= limits_.maxUnsupportedBins && !c.excess &&
+                            fit.rmsPx <= limits_.maxFitRmsPx;
+            }
+        }
+        if (oneObject) {
+            out.push_back(std::move(whole));
+        } else {
+            for (const Member& m : members) {
+                Object o;
+                o.members = {m};
+                o.feature = w.features[m.type][m.feature];
+                o.type = m.type;
+                out.push_back(std::move(o));
+            }
+        }
+    }
+    return out;
+}
+
+void TargetAssembler::assemble(AnalysisFrame& frame) const {
+    const std::vector<Object> left = objects(frame, Side::Left), right = objects(frame, Side::Right);
+    // (type, feature) -> object, per side.
+    const auto index = [&](const std::vector<Object>& objs, const ImageWork& w) {
+        std::vector<std::vector<int>> idx(w.features.size());
+        for (std::size_t t = 0; t < w.features.size(); ++t) idx[t].assign(w.features[t].size(), -1);
+        for (std::size_t o = 0; o < objs.size(); ++o)
+            for (const Member& m : objs[o].members) idx[m.type][m.feature] = static_cast<int>(o);
+        return idx;
+    };
+    const auto leftOf = index(left, frame.at(Side::Left));
+    const auto rightOf = index(right, frame.at(Side::Right));
+
+    // Matches of any type between two objects make one candidate; an object
+    // in two candidates (its parts matched to different objects) is in conflict.
+    struct Pair {
+        int left, right;
+        double error;
+        std::size_t order;  ///< type-major position of its first match
+    };
+    std::vector<Pair> pairs;
+    std::size_t order = 0;
+    for (std::size_t t = 0; t < frame.matches.size(); ++t)
+        for (const FeatureMatch& m : frame.matches[t]) {
+            const int l = leftOf[t][static_cast<std::size_t>(m.left)], r = rightOf[t][static_cast<std::size_t>(m.right)];
+            auto it = std::find_if(pairs.begin(), pairs.end(), [&](const Pair& p) { return p.left == l && p.right == r; });
+            if (it == pairs.end()) pairs.push_back({l, r, m.shapeError, order});
+            else it->error = std::min(it->error, m.shapeError);
+            ++order;
+        }
+    std::vector<int> leftUse(left.size(), 0), rightUse(right.size(), 0);
+    for (const Pair& p : pairs) {
+        ++leftUse[static_cast<std::size_t>(p.left)];
+        ++rightUse[static_cast<std::size_t>(p.right)];
+    }
+
+    std::vector<VisionTarget>& out = frame.result.targets;
+    const std::size_t first = out.size();
+    struct Placed {
+        std::size_t target;
+        cv::Rect box[2];
+        bool contact[2];
+    };
+    std::vector<Placed> placed;
+    for (std::size_t t = 0; t < config_.targets.targets.size(); ++t) {
+        for (const Pair& p : pairs) {
+            const Object& l = left[static_cast<std::size_t>(p.left)];
+            if (l.type != t) continue;
+            const Object& r = right[static_cast<std::size_t>(p.right)];
+            const bool conflict = leftUse[static_cast<std::size_t>(p.left)] > 1 || rightUse[static_cast<std::size_t>(p.right)] > 1;
+            Built b = stereoTarget(frame, l, r, p.error, conflict);
+            out.push_back(std::move(b.target));
+            placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {b.contact[0], b.contact[1]}});
+        }
+        for (std::size_t o = 0; o < left.size(); ++o)
+            if (left[o].type == t && leftUse[o] == 0) out.push_back(singleTarget(frame, left[o], Side::Left));
+        for (std::size_t o = 0; o < right.size(); ++o)
+            if (right[o].type == t && rightUse[o] == 0) out.push_back(singleTarget(frame, right[o], Side::Right));
+    }
+
+    // A target without a round model that touches another target in a view
+    // is hidden there unless it is nearer than everything it touches.
+    for (const Placed& a : placed) {
+        VisionTarget& ta = out[a.target];
+        for (int side = 0; side < 2; ++side) {
+            if (!a.contact[side]) continue;
+            bool nearer = ta.positionVisionMm.has_value();
+            bool any = false;
+            for (const Placed& b : placed) {
+                if (&a == &b || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
+                any = true;
+                const VisionTarget& tb = out[b.target];
+                const double margin = 0.5 * std::sqrt(std::max(ta.areaLeftPx, 1.0) / M_PI) /
+                                      config_.stereo.left.fc[0] * (ta.positionVisionMm ? ta.positionVisionMm->z : 0.0);
+                if (!tb.positionVisionMm || !ta.positionVisionMm ||
+                    !(ta.positionVisionMm->z + margin < tb.positionVisionMm->z))
+                    nearer = false;
+            }
+            if (!any || !nearer) ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+        }
+    }
+    for (std::size_t i = first; i < out.size(); ++i) {
+        VisionTarget& v = out[i];
+        const bool incomplete =
+            v.flags & (kTargetCut | kTargetOccludedLeft | kTargetOccludedRight | kTargetMerged | kTargetAmbiguous);
+        if ((v.flags & kTargetStereo) && !incomplete) v.flags |= kTargetWhole;
+        else v.flags &= ~static_cast<std::uint32_t>(kTargetWhole);
+    }
+}
+
+TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame, const Object& left,
+                                                     const Object& right, double matchError, bool conflict) const {
+    const auto& types = config_.targets.targets;
+    const TargetType& type = types[left.type];
+    Built built;
+    VisionTarget& target = built.target;
     target.type = type.name;
+    target.flags = kTargetStereo;
+    target.matchError = matchError;
+    const bool weighted = config_.analysis.centroid == CentroidMode::IntensityWeighted;
+    const bool coverage = config_.analysis.centroid == CentroidMode::Coverage;
+    const TargetShape declared = type.shape;
+    const bool round = declared == TargetShape::Sphere || declared == TargetShape::Disc;
+    if (left.typeShare < limits_.minTypeShare || right.typeShare < limits_.minTypeShare || left.type != right.type ||
+        conflict)
+        target.flags |= kTargetAmbiguous;
+
+    ViewVerdict views[2];
+    const Object* objs[2] = {&left, &right};
+    for (int s = 0; s < 2; ++s) {
+        const Side side = s == 0 ? Side::Left : Side::Right;
+        const ImageWork& w = frame.at(side);
+        const Object& o = *objs[s];
+        const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
+        const cv::Rect window = searchWindow(types[o.type], w.image.size());
+        ViewVerdict& v = views[s];
+        v.silhouette = o.unionMask.empty()
+                           ? measureSilhouette(w.image, w.masks, o.members[0].type, o.feature, window,
+                                               limits_.centroidCorrelation)
+                           : measureSilhouette(w.image, w.masks, static_cast<std::size_t>(-1), o.feature, window,
+                                               limits_.centroidCorrelation, o.unionMask);
+        const Silhouette& sil = v.silhouette;
+        v.touchesEdge = sil.imageEdgePoints + sil.windowEdgePoints > 0 || o.feature.touchesBorder;
+        if (v.touchesEdge) target.flags |= kTargetAtBorder;
+        if (round) {
+            v.fit = fitEllipse(camera, sil.outline, limits_.minFitThresholdPx);
+            if (!v.fit.ok) {
+                // Too little of its outline is its own.
+                if (sil.imageEdgePoints + sil.windowEdgePoints > sil.contactPoints) v.cut = true;
+                else v.hidden = true;
+                continue;
+            }
+            v.round = roundCompleteness(camera, v.fit, sil.outline, [&](const cv::Point2d& px, bool& own) {
+                return sil.probe(px, w.image.size(), window, own);
+            });
+            const int tolerance = limits_.maxUnsupportedBins;
+            v.cut = v.round.cut > tolerance;
+            v.hidden = v.round.hidden > tolerance || v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx;
+            // Two round targets in one feature: a waist on either side (or
+            // points well outside any one ellipse).
+            const double minorRadius = 0.5 * std::min(v.fit.ideal.size.width, v.fit.ideal.size.height);
+            const int waists = freeConcavities(sil, std::max(2.0, limits_.minConcavityDepth * minorRadius));
+            v.merged = v.round.excess || waists >= 2;
+            if (v.merged) v.hidden = false;  // what it is, not what hides it
+            v.roundFits = !v.cut && !v.hidden && !v.merged;
+            v.modelUsable = !v.merged && v.fit.rmsPx <= limits_.maxFitRmsPx && 2 * v.round.supported >= v.round.bins;
+        } else {
+            v.cut = v.touchesEdge;  // judged against the other view below
+            v.contact = sil.contactPoints > 0;
+        }
+    }
+
+    // The image points and their covariances (px^2), by the model that fits.
+    std::optional<StereoPoint> point;
+    cv::Point2d pl, pr;  // normalised image points of a model, or pixels of centroids
+    bool normalised = false;
+    ShapeModel model = ShapeModel::None;
+    // A partial round target is still located by its model when most of
+    // each outline is its own: its best estimate (it is not flagged whole).
+    if (round && views[0].modelUsable && views[1].modelUsable) {
+        const auto cl = sphereCone(views[0].fit.conic), cr = sphereCone(views[1].fit.conic);
+        std::optional<StereoPoint> sphere, disc;
+        cv::Point2d sl, sr, dl, dr;
+        if (cl && cr && cl->anisotropy <= limits_.maxSphereAnisotropy && cr->anisotropy <= limits_.maxSphereAnisotropy) {
+            sphere = calculator_.triangulateNormalized(cl->axis, cr->axis);
+            if (sphere) {
+                const double rl = cv::norm(sphere->leftMm) * std::sin(cl->halfAngle);
+                const double rr = cv::norm(sphere->rightMm) * std::sin(cr->halfAngle);
+                if (std::abs(rl - rr) > limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr)) sphere.reset();
+            }
+            sl = cl->axis;
+            sr = cr->axis;
+        }
+        if (const auto d = discPair(views[0].fit.conic, views[1].fit.conic, rightRLeft_);
+            d && d->disagreementRad <= limits_.maxDiscNormalDisagreementRad) {
+            disc = calculator_.triangulateNormalized(d->centreLeft, d->centreRight);
+            dl = d->centreLeft;
+            dr = d->centreRight;
+        }
+        const bool sphereFirst = declared == TargetShape::Sphere;
+        if (sphereFirst && sphere) { point = sphere; pl = sl; pr = sr; model = ShapeModel::Sphere; }
+        else if (disc) { point = disc; pl = dl; pr = dr; model = ShapeModel::Disc; }
+        else if (sphere) { point = sphere; pl = sl; pr = sr; model = ShapeModel::Sphere; }
+        normalised = point.has_value();
+    }
+    if (!round) {
+        // Views that touch an edge: cut unless the other view shows the
+        // whole and the two agree in size (checked below).
+        if (declared == TargetShape::Composite) model = ShapeModel::Composite;
+    }
+    for (int s = 0; s < 2; ++s) {
+        const ViewVerdict& v = views[s];
+        if (v.cut) target.flags |= kTargetCut;
+        if (v.hidden) target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+        if (v.merged) target.flags |= kTargetMerged;
+        built.contact[s] = v.contact;  // judged by depth in assemble()
+    }
+
+    const Feature& fl = left.feature;
+    const Feature& fr = right.feature;
+    const auto centroid = [&](const ViewVerdict& v, const Feature& f) {
+        if (coverage && v.silhouette.subPixel && v.silhouette.area > 0.0) return v.silhouette.centroid;
+        return weighted ? f.weightedCentroid : f.centroid;
+    };
+    const cv::Point2d cl = centroid(views[0], fl), cr = centroid(views[1], fr);
+    if (!point) {
+        if (ninePoints_) point = triangulateNinePoints(calculator_, fl, fr, cl, cr);
+        if (!point) point = calculator_.triangulate(cl, cr);
+        pl = cl;
+        pr = cr;
+        if (model != ShapeModel::Composite) model = ShapeModel::None;
+    }
+    target.model = model;
+    if (model == ShapeModel::Sphere || model == ShapeModel::Disc) target.flags |= kTargetShapeCorrected;
+    target.centroidLeftPx = normalised ? toPixel(config_.stereo.left, pl) : cl;
+    target.centroidRightPx = normalised ? toPixel(config_.stereo.right, pr) : cr;
+    target.areaLeftPx = views[0].silhouette.area > 0.0 ? views[0].silhouette.area : fl.area;
+    target.areaRightPx = views[1].silhouette.area > 0.0 ? views[1].silhouette.area : fr.area;
+
+    if (!point || !std::isfinite(point->leftMm.x) || !std::isfinite(point->leftMm.y) ||
+        !std::isfinite(point->leftMm.z)) {
+        target.flags &= ~static_cast<std::uint32_t>(kTargetStereo | kTargetShapeCorrected);  // parallel rays
+        target.model = ShapeModel::None;
+        return built;
+    }
+    target.positionVisionMm = point->leftMm;
+    target.positionBaseMm = point->baseMm;
+    target.rayResidualMm = point->rayGapMm;
+    target.rayResidualPx = point->reprojectionPx;
+    const cv::Matx22d covL = views[0].silhouette.centroidCovariance, covR = views[1].silhouette.centroidCovariance;
+    std::optional<cv::Matx33d> cov;
+    if (normalised) {
+        const double fl2 = config_.stereo.left.fc[0] * config_.stereo.left.fc[0];
+        const double fr2 = config_.stereo.right.fc[0] * config_.stereo.right.fc[0];
+        cov = calculator_.covarianceNormalized(pl, pr, covL * (1.0 / fl2), covR * (1.0 / fr2));
+    } else {
+        cov = calculator_.covariancePixels(pl, pr, covL, covR);
+    }
+    if (cov) {
+        target.covarianceVisionMm2 = *cov;
+        if (calculator_.hasRegistration()) target.covarianceBaseMm2 = calculator_.covarianceToBase(*cov);
+    }
+
+    // The two views must agree on the target's size at its range.
+    const double dl = cv::norm(point->leftMm), dr = cv::norm(point->rightMm);
+    const double sizeL = std::sqrt(std::max(target.areaLeftPx, 0.0)) * dl / config_.stereo.left.fc[0];
+    const double sizeR = std::sqrt(std::max(target.areaRightPx, 0.0)) * dr / config_.stereo.right.fc[0];
+    const double mismatch = std::abs(sizeL - sizeR) / std::max(0.5 * (sizeL + sizeR), 1e-9);
+    if (!round) {
+        const double limit = limits_.maxAreaMismatch;
+        if (mismatch > limit) target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
+        // An edge-touching view is only touching when the other view does not
+        // touch and the sizes agree.
+        const bool edgeL = views[0].touchesEdge, edgeR = views[1].touchesEdge;
+        if (edgeL != edgeR && mismatch <= 0.5 * limit) target.flags &= ~static_cast<std::uint32_t>(kTargetCut);
+    } else if (model == ShapeModel::None && views[0].roundFits && views[1].roundFits &&
+               mismatch > limits_.maxSizeMismatch) {
+        target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
+    }
+    return built;
+}
+
+VisionTarget TargetAssembler::singleTarget(const AnalysisFrame& frame, const Object& object, Side side) const {
+    const bool weighted = config_.analysis.centroid == CentroidMode::IntensityWeighted;
+    VisionTarget target;
+    target.type = config_.targets.targets[object.type].name;
     target.flags = side == Side::Left ? kTargetLeftOnly : kTargetRightOnly;
-    if (f.touchesBorder) target.flags |= kTargetAtBorder;
+    if (object.typeShare < limits_.minTypeShare) target.flags |= kTargetAmbiguous;
+    const Feature& f = object.feature;
+    const cv::Rect window = searchWindow(config_.targets.targets[object.type], frame.at(side).image.size());
+    const bool atWindow = f.box.x <= window.x || f.box.y <= window.y ||
+                          f.box.x + f.box.width >= window.x + window.width ||
+                          f.box.y + f.box.height >= window.y + window.height;
+    if (f.touchesBorder || atWindow) target.flags |= kTargetAtBorder;
+    const cv::Point2d c = weighted ? f.weightedCentroid : f.centroid;
     if (side == Side::Left) {
-        target.centroidLeftPx = point(f);
+        target.centroidLeftPx = c;
         target.areaLeftPx = f.area;
     } else {
-        target.centroidRightPx = point(f);
+        target.centroidRightPx = c;
         target.areaRightPx = f.area;
     }
     return target;

@@ -1,18 +1,26 @@
 #pragma once
 /// @file TargetAssembly.h
 /// Internal: how matched and unmatched features become the targets of a
-/// VisionTargets (thesis 3.4.2, 3.6.2): the position of each stereo target
-/// (sphere silhouette cone, nine points or centroid), its flags, and the
-/// single-image targets.
+/// VisionTargets (thesis 3.4.2, 3.6.2), as targets an arm can trust:
+/// - every stereo target's silhouettes are measured (Silhouette.h) and
+///   checked for completeness: a round type's (sphere, disc) against its
+///   fitted ellipse (ShapeFit.h), every type against the image and window
+///   edges, other targets it touches and the other view;
+/// - features of different types that touch are one object split between
+///   two filters when their union is round (or their types have no model):
+///   it is reported once, under the type that holds most of it, or as
+///   ambiguous;
+/// - the position comes from the shape model that fits (sphere cone axes,
+///   disc centres), else the centroids; its covariance from the centroids'
+///   through the triangulation;
+/// - kTargetWhole only when nothing says otherwise.
 
 #include <avatar/analyze/Feature.h>
+#include <avatar/analyze/ProcessStereoImagePair.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
-#include <avatar/common/ImageFormat.h>
 #include <avatar/common/StereoCoordinateCalculator.h>
 #include <avatar/common/VisionTargets.h>
-#include <avatar/config/AnalysisConfig.h>
-#include <avatar/config/StereoSystemConfig.h>
-#include <avatar/config/TargetConfig.h>
+#include <avatar/config/AvatarConfig.h>
 
 #include <opencv2/core/mat.hpp>
 
@@ -20,32 +28,49 @@
 
 namespace avatar::detail {
 
+/// The evidence thresholds of the completeness checks (docs/accuracy.md
+/// says how they were chosen: on scene sets of one seed, reported on another).
+struct CompletenessLimits {
+    double minFitThresholdPx{0.5};  ///< smallest inlier limit of the ellipse fits
+    int maxUnsupportedBins{1};      ///< ellipse bins without outline points that are tolerated
+    double maxFitRmsPx{0.45};       ///< RMS of a round silhouette's inliers about its ellipse
+    double maxSphereAnisotropy{0.04};  ///< of a sphere's cone (0 for a sphere)
+    double maxSphereRadiusMismatch{0.03};  ///< relative, between the two views' radii
+    double maxDiscNormalDisagreementRad{0.09};  ///< about 5 degrees
+    double maxSizeMismatch{0.04};   ///< relative, of a round target's size between the views
+    double maxAreaMismatch{0.15};   ///< relative, of the range-scaled areas of other shapes
+    double minConcavityDepth{0.08};  ///< of a round silhouette's waist, relative to its radius
+    double minTypeShare{0.8};       ///< of an object split between filters, for its type to be decided
+    double centroidCorrelation{1.0};  ///< see measureSilhouette()
+};
+
 class TargetAssembler {
 public:
-    TargetAssembler(const StereoSystemConfig& stereo, const AnalysisConfig& analysis);
+    explicit TargetAssembler(const AvatarConfig& config, CompletenessLimits limits = {});
 
-    /// Appends the targets of one type: a stereo target per match (in match
-    /// order), then the unmatched left features, then the unmatched right ones.
-    /// @p leftMask and @p rightMask are the type's masks the features were found in.
-    void assemble(const TargetType& type, const std::vector<Feature>& left, const std::vector<Feature>& right,
-                  const cv::Mat& leftMask, const cv::Mat& rightMask, const std::vector<FeatureMatch>& matches,
-                  std::vector<VisionTarget>& out) const;
-
-    /// A matched pair. A sphere away from the border is triangulated through
-    /// its silhouette cones (kTargetShapeCorrected); otherwise by the nine
-    /// points when configured, else by its centroids. Parallel rays give no
-    /// position and clear kTargetStereo.
-    VisionTarget stereoTarget(const TargetType& type, const Feature& left, const Feature& right,
-                              const cv::Mat& leftMask, const cv::Mat& rightMask, const FeatureMatch& match) const;
-    /// A feature seen in one image only.
-    VisionTarget singleTarget(const TargetType& type, const Feature& feature, Side side) const;
+    /// Appends the targets of @p frame (its masks, features and matches of
+    /// every type) to frame.result.targets: the stereo targets, then the
+    /// features seen in one image only, by type.
+    void assemble(AnalysisFrame& frame) const;
 
 private:
-    /// The configured centroid of a feature.
-    cv::Point2d point(const Feature& f) const { return weighted_ ? f.weightedCentroid : f.centroid; }
+    struct Object;
+    /// A stereo target, and in which views it touches another target (which
+    /// only the depths of the targets it touches can judge).
+    struct Built {
+        VisionTarget target;
+        bool contact[2]{false, false};
+    };
 
+    std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
+    Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
+                       bool conflict) const;
+    VisionTarget singleTarget(const AnalysisFrame& frame, const Object& object, Side side) const;
+
+    AvatarConfig config_;
+    CompletenessLimits limits_;
     StereoCoordinateCalculator calculator_;
-    bool weighted_;
+    cv::Matx33d rightRLeft_;
     bool ninePoints_;
 };
 

@@ -72,9 +72,10 @@ struct EnumWords<DemosaicAlgorithm> {
 
 template <>
 struct EnumWords<CentroidMode> {
-    static constexpr std::array<std::pair<CentroidMode, std::string_view>, 2> table{{
-        {CentroidMode::Pixel, "pixel"}, {CentroidMode::IntensityWeighted, "intensity_weighted"}}};
-    static constexpr const char* list = "pixel or intensity_weighted";
+    static constexpr std::array<std::pair<CentroidMode, std::string_view>, 3> table{{
+        {CentroidMode::Pixel, "pixel"}, {CentroidMode::IntensityWeighted, "intensity_weighted"},
+        {CentroidMode::Coverage, "coverage"}}};
+    static constexpr const char* list = "pixel, intensity_weighted or coverage";
     static constexpr const char* type = "CentroidMode";
 };
 

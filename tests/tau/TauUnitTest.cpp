@@ -252,10 +252,16 @@ TEST_F(TauUnitServerTest, EveryRequest) {
     const VisionTarget sample = snap.ofType("sample").front();
     ASSERT_TRUE(sample.positionVisionMm.has_value());
     ASSERT_TRUE(sample.centroidLeftPx.has_value());
-    // Recorded result of the pair (session.log): (62.0, 83.5, 753.0) mm.
+    // Recorded result of the pair (session.log): (62.0, 83.5, 753.0) mm, whole,
+    // with its covariance and ray residual (protocol version 2).
     EXPECT_NEAR(sample.positionVisionMm->x, 62.0, 2.0);
     EXPECT_NEAR(sample.positionVisionMm->y, 83.5, 2.0);
     EXPECT_NEAR(sample.positionVisionMm->z, 753.0, 10.0);
+    EXPECT_TRUE(sample.flags & kTargetWhole) << targetFlagsText(sample.flags);
+    ASSERT_TRUE(sample.covarianceVisionMm2.has_value());
+    EXPECT_GT((*sample.covarianceVisionMm2)(2, 2), 0.0);
+    ASSERT_TRUE(sample.covarianceBaseMm2.has_value());
+    EXPECT_GT(sample.rayResidualPx, 0.0);
     EXPECT_FALSE(snap.timings.empty());
 
     // Target data: the same result.

@@ -29,7 +29,7 @@ grep -q '^iteration 2 (group 1 member 1): identical$' "$work/report.txt" || fail
 "$analyze" --session "$src/data/sessions/lab" >"$work/analyze.out" 2>"$work/analyze.err" ||
   fail "avatar-analyze on the lab session exited $?: $(cat "$work/analyze.err")"
 [ "$(grep -c '^iteration [0-9]' "$work/analyze.out")" = 3 ] || fail "avatar-analyze did not print 3 iterations"
-grep -Eq '^  sample +stereo +vision ' "$work/analyze.out" || fail "avatar-analyze printed no stereo sample"
+grep -Eq '^  sample +stereo,whole +vision ' "$work/analyze.out" || fail "avatar-analyze printed no stereo sample"
 
 # --- one record damaged: its line altered, so its checksum no longer matches
 cp -r "$src/data/sessions/lab" "$work/damaged"

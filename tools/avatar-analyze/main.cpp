@@ -12,6 +12,8 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -36,6 +38,14 @@ void printTargets(const VisionTargets& r) {
             std::printf("  base %8.1f %8.1f %8.1f mm", t.positionBaseMm->x, t.positionBaseMm->y, t.positionBaseMm->z);
         if (t.centroidLeftPx) std::printf("  L (%7.2f, %7.2f)", t.centroidLeftPx->x, t.centroidLeftPx->y);
         if (t.centroidRightPx) std::printf("  R (%7.2f, %7.2f)", t.centroidRightPx->x, t.centroidRightPx->y);
+        if (t.flags & kTargetStereo) {
+            std::printf("  model %s", std::string(toString(t.model)).c_str());
+            if (t.covarianceVisionMm2) {
+                const Covariance3& c = *t.covarianceVisionMm2;
+                std::printf("  sigma %.2f %.2f %.2f mm", std::sqrt(std::max(c(0, 0), 0.0)),
+                            std::sqrt(std::max(c(1, 1), 0.0)), std::sqrt(std::max(c(2, 2), 0.0)));
+            }
+        }
         std::printf("\n");
     }
     std::printf("  timings:");

@@ -67,6 +67,11 @@ struct TargetSpec {
     std::array<double, 3> om{0.0, 0.0, 0.0}; ///< duck and box orientation (Rodrigues, rad)
     Rgb albedo{0.9, 0.75, 0.05};
     Rgb beakAlbedo{0.95, 0.35, 0.02};        ///< duck only
+    /// Sphere and disc: a second colour where splitNormal . (x - centre) >
+    /// splitOffsetMm (|splitNormal| = 1): a target split between two filters.
+    std::optional<Rgb> secondAlbedo;
+    cv::Vec3d splitNormal{1.0, 0.0, 0.0};
+    double splitOffsetMm{0.0};
 };
 
 /// The arm marker (e.g. the gold box on the Ranger end effector). Its pose is

@@ -10,8 +10,9 @@ namespace avatar {
 
 /// Which 2-D point of a feature is triangulated as its position.
 enum class CentroidMode {
-    Pixel,             ///< mean pixel position (thesis Figure 3-13)
-    IntensityWeighted  ///< brightness-weighted mean: sub-pixel, less sensitive to the mask's edge
+    Pixel,              ///< mean pixel position (thesis Figure 3-13)
+    IntensityWeighted,  ///< brightness-weighted mean: follows the shading of a lit target
+    Coverage            ///< the area the sub-pixel outline encloses: each edge where the colour is half-way
 };
 
 /// How a matched feature pair becomes a 3-D point (thesis 3.4.2).
@@ -41,7 +42,7 @@ struct AnalysisConfig {
     std::vector<std::string> stages{"demosaic",        "lighting", "color_filter", "erode_restore",
                                     "locate_features", "match",    "triangulate",  "visibility"};
     DemosaicAlgorithm demosaic{DemosaicAlgorithm::Bilinear};
-    CentroidMode centroid{CentroidMode::IntensityWeighted};
+    CentroidMode centroid{CentroidMode::Coverage};
     TriangulationMode triangulation{TriangulationMode::Centroid};
     VisibilityConfig visibility;
 

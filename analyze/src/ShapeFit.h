@@ -1,0 +1,103 @@
+#pragma once
+/// @file ShapeFit.h
+/// Internal to avatar::analyze: the round shape models (thesis 3.4.2 done
+/// with the geometry of conics). A sphere's silhouette and a flat circle's
+/// image are both ellipses in undistorted coordinates, so each silhouette is
+/// first fitted with an ellipse robustly (outline points that do not follow
+/// it are found, and the parts of the ellipse no point supports are
+/// explained: beyond the image or window edge, behind another target, or
+/// simply missing); then the 3-D interpretation:
+/// - sphere: the silhouette is the image of a circular cone whose axis
+///   passes through the centre; the axis is the eigenvector of the conic's
+///   odd eigenvalue, the cone's half-angle gives the radius once the range
+///   is known, and a circular cone has two equal eigenvalues (anisotropy 0);
+/// - disc: the circle's plane normal follows from the conic up to a two-fold
+///   ambiguity (the two circular sections of an elliptic cone); both cameras
+///   must agree on it, and the image of the circle's centre is the pole of
+///   the plane's vanishing line, Q^-1 n: not the ellipse's centre.
+
+#include "Silhouette.h"
+
+#include <avatar/common/CameraModel.h>
+
+#include <opencv2/core/matx.hpp>
+#include <opencv2/core/types.hpp>
+
+#include <functional>
+#include <optional>
+#include <vector>
+
+namespace avatar::detail {
+
+/// A robust ellipse fit of a silhouette's free outline points.
+struct EllipseFit {
+    bool ok{false};
+    /// The ellipse in ideal pixels: undistorted normalised coordinates x fc[0].
+    cv::RotatedRect ideal;
+    /// Its conic in undistorted normalised coordinates, x^T Q x = 0, x = (u, v, 1).
+    cv::Matx33d conic;
+    double rmsPx{0.0};          ///< RMS distance of the inliers from the ellipse
+    double thresholdPx{0.0};    ///< the inlier limit used
+    int points{0}, inliers{0};
+    int excessPoints{0};        ///< free points outside the ellipse beyond the limit
+    int deficitPoints{0};       ///< free points inside it beyond the limit
+};
+
+/// What the image shows at a point (distorted pixels).
+using PixelProbe = std::function<EdgeKind(const cv::Point2d& px, bool& ownFeature)>;
+
+/// How complete a silhouette is against its fitted ellipse.
+struct RoundCompleteness {
+    int bins{0};           ///< the ellipse's outline in equal angle bins
+    int supported{0};      ///< bins with an inlier outline point
+    int present{0};        ///< unsupported bins where the silhouette still reaches the ellipse
+    int cut{0};            ///< unsupported bins beyond the image or window edge
+    int hidden{0};         ///< unsupported bins behind another target
+    int missing{0};        ///< unsupported bins with background: hidden by something else, or not an ellipse
+    bool excess{false};    ///< outline points well outside the ellipse: more than one object
+};
+
+/// Fits @p outline's free points (needs at least 10). @p minThresholdPx is
+/// the smallest inlier limit (the fit's accuracy).
+EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlinePoint>& outline,
+                      double minThresholdPx);
+
+/// Explains each part of the fitted ellipse: supported by outline points, or
+/// why not (@p probe tells what lies at a pixel).
+RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const EllipseFit& fit,
+                                    const std::vector<OutlinePoint>& outline, const PixelProbe& probe);
+
+/// The number of concavities of a silhouette's outline deeper than
+/// @p minDepthPx whose deepest point borders free background (not another
+/// target, nor an edge): a round target has none, one with a bite taken by
+/// something in front of it one, two touching round targets in one feature
+/// two (the waist on either side).
+int freeConcavities(const Silhouette& silhouette, double minDepthPx);
+
+/// The sphere interpretation of an ellipse.
+struct SphereCone {
+    cv::Point2d axis;        ///< normalised direction (x/z, y/z) of the centre
+    double halfAngle{0.0};   ///< rad
+    double anisotropy{0.0};  ///< |l1 - l2| / |l1 + l2| * 2 of the two same-sign eigenvalues: 0 for a sphere
+};
+std::optional<SphereCone> sphereCone(const cv::Matx33d& conic);
+
+/// The two candidate unit normals (camera frame, pointing towards the
+/// camera) of a circle whose image is @p conic.
+std::optional<std::array<cv::Vec3d, 2>> circleNormals(const cv::Matx33d& conic);
+
+/// The normalised image of the centre of the circle of plane normal @p n
+/// (camera frame) imaged as @p conic: Q^-1 n dehomogenised.
+std::optional<cv::Point2d> circleCentre(const cv::Matx33d& conic, const cv::Vec3d& n);
+
+/// The disc interpretation of a pair of ellipses: the normal both cameras
+/// agree on best (left frame) and the angle between their candidates.
+struct DiscPair {
+    cv::Vec3d normalLeft;
+    double disagreementRad{0.0};
+    cv::Point2d centreLeft, centreRight;  ///< normalised images of the circle's centre
+};
+std::optional<DiscPair> discPair(const cv::Matx33d& conicLeft, const cv::Matx33d& conicRight,
+                                 const cv::Matx33d& rightRLeft);
+
+}  // namespace avatar::detail

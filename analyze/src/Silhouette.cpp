@@ -1,0 +1,259 @@
+#include "Silhouette.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace avatar::detail {
+
+namespace {
+
+// Labels of the region around the feature.
+constexpr std::uint8_t kBackground = 0;
+constexpr std::uint8_t kFeature = 1;
+constexpr std::uint8_t kOther = 2;    ///< another target's pixels
+constexpr std::uint8_t kOutside = 3;  ///< background connected to the region's frame (holes are not)
+
+constexpr int kMargin = 4;  ///< region = feature box + this on every side
+
+struct Direction {
+    int dx, dy;
+};
+constexpr std::array<Direction, 4> kDirections{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
+
+}  // namespace
+
+EdgeKind Silhouette::probe(const cv::Point2d& px, const cv::Size& image, const cv::Rect& window, bool& own) const {
+    own = false;
+    if (px.x < -0.5 || px.y < -0.5 || px.x > image.width - 0.5 || px.y > image.height - 0.5) return EdgeKind::ImageEdge;
+    if (px.x < window.x - 0.5 || px.y < window.y - 0.5 || px.x > window.x + window.width - 0.5 ||
+        px.y > window.y + window.height - 0.5)
+        return EdgeKind::WindowEdge;
+    const int x = static_cast<int>(std::lround(px.x)) - region.x, y = static_cast<int>(std::lround(px.y)) - region.y;
+    if (labels.empty() || x < 0 || y < 0 || x >= labels.cols || y >= labels.rows) return EdgeKind::Free;
+    const std::uint8_t l = labels.at<std::uint8_t>(y, x);
+    own = l == kFeature;
+    return l == kOther ? EdgeKind::Contact : EdgeKind::Free;
+}
+
+Silhouette measureSilhouette(const cv::Mat& bgr, const std::vector<cv::Mat>& masks, std::size_t ownIndex,
+                             const Feature& feature, const cv::Rect& window, double correlation,
+                             const cv::Mat& ownOverride) {
+    Silhouette out;
+    const cv::Mat& ownMask = ownOverride.empty() ? masks.at(ownIndex) : ownOverride;
+    const cv::Rect imageRect(0, 0, ownMask.cols, ownMask.rows);
+    const cv::Rect box = feature.box;
+    const cv::Rect roi = cv::Rect(box.x - kMargin, box.y - kMargin, box.width + 2 * kMargin,
+                                  box.height + 2 * kMargin) & imageRect;
+    if (roi.empty()) return out;
+
+    // Labels, with a one-pixel frame around the region so that the flood of
+    // the background reaches around the feature.
+    cv::Mat frame(roi.height + 2, roi.width + 2, CV_8UC1, cv::Scalar(kBackground));
+    cv::Mat lab = frame(cv::Rect(1, 1, roi.width, roi.height));
+    cv::Mat own = ownMask(roi) != 0;
+    lab.setTo(cv::Scalar(255), own);
+    const cv::Point seed = feature.boundary[kTopLeft] - roi.tl();
+    if (!cv::Rect(0, 0, roi.width, roi.height).contains(seed) || lab.at<std::uint8_t>(seed) != 255) return out;
+    cv::floodFill(lab, seed, cv::Scalar(kFeature), nullptr, cv::Scalar(), cv::Scalar(), 8);
+    lab.setTo(cv::Scalar(kOther), lab == 255);  // the mask's other features
+    for (std::size_t m = 0; m < masks.size(); ++m) {
+        if (m == ownIndex && ownOverride.empty()) continue;
+        cv::Mat others = (masks[m](roi) != 0) & (lab != kFeature);
+        lab.setTo(cv::Scalar(kOther), others);
+    }
+    cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
+    lab.setTo(cv::Scalar(kFeature), lab == kBackground);  // holes join the feature
+
+    cv::Mat image;
+    bgr(roi).convertTo(image, CV_32FC3);
+    const auto label = [&](int x, int y) -> int {  // region coordinates; -1 outside the region
+        if (x < 0 || y < 0 || x >= roi.width || y >= roi.height) return -1;
+        return lab.at<std::uint8_t>(y, x);
+    };
+    const auto colour = [&](int x, int y) { return image.at<cv::Vec3f>(y, x); };
+
+    // The target's and the background's colours away from the edge, and the
+    // noise of one pixel inside the target (pixels two apart, which
+    // demosaicing leaves nearly independent).
+    cv::Mat inner, near;
+    cv::erode(lab == kFeature, inner, cv::Mat::ones(5, 5, CV_8UC1));
+    cv::dilate(lab == kFeature, near, cv::Mat::ones(5, 5, CV_8UC1));
+    cv::Vec3d targetSum(0, 0, 0), backgroundSum(0, 0, 0), diffSq(0, 0, 0);
+    int targetCount = 0, backgroundCount = 0, diffCount = 0;
+    for (int y = 0; y < roi.height; ++y) {
+        const std::uint8_t* in = inner.ptr<std::uint8_t>(y);
+        const std::uint8_t* nr = near.ptr<std::uint8_t>(y);
+        const std::uint8_t* lb = lab.ptr<std::uint8_t>(y);
+        const cv::Vec3f* px = image.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < roi.width; ++x) {
+            if (in[x]) {
+                targetSum += cv::Vec3d(px[x]);
+                ++targetCount;
+                if (x + 2 < roi.width && in[x + 2]) {
+                    const cv::Vec3f d = px[x] - px[x + 2];
+                    diffSq += cv::Vec3d(d[0] * d[0], d[1] * d[1], d[2] * d[2]);
+                    ++diffCount;
+                }
+            } else if (!nr[x] && lb[x] == kOutside) {
+                backgroundSum += cv::Vec3d(px[x]);
+                ++backgroundCount;
+            }
+        }
+    }
+    const cv::Vec3d noiseVar = diffCount > 0 ? diffSq * (0.5 / diffCount) : cv::Vec3d(0, 0, 0);
+    const cv::Vec3f targetMean = targetCount > 0 ? cv::Vec3f(targetSum * (1.0 / targetCount)) : cv::Vec3f();
+    const cv::Vec3f backgroundMean =
+        backgroundCount > 0 ? cv::Vec3f(backgroundSum * (1.0 / backgroundCount)) : cv::Vec3f();
+    const bool haveColours = targetCount > 0 && backgroundCount > 0;
+
+    /// The noise of a coverage estimate along w = (T - B) / |T - B|^2.
+    const auto coverageVariance = [&](const cv::Vec3f& w) {
+        return w[0] * w[0] * noiseVar[0] + w[1] * w[1] * noiseVar[1] + w[2] * w[2] * noiseVar[2];
+    };
+    if (haveColours) {
+        const cv::Vec3f d = targetMean - backgroundMean;
+        const double n2 = d.dot(d);
+        if (n2 > 0.0) out.coverageNoise = std::sqrt(coverageVariance(d * static_cast<float>(1.0 / n2)));
+    }
+    // Sub-pixel edges need the colours to differ well above the noise.
+    const bool subPixel = haveColours && out.coverageNoise < 0.15;
+    out.subPixel = subPixel;
+
+    double binaryArea = 0.0, sumX = 0.0, sumY = 0.0;
+    double addedArea = 0.0, addedX = 0.0, addedY = 0.0;
+    struct FreeEdge {
+        cv::Point2d mid;
+        double variance;
+    };
+    std::vector<FreeEdge> freeEdges;
+    const int wx0 = window.x - roi.x, wy0 = window.y - roi.y;
+    const int wx1 = wx0 + window.width, wy1 = wy0 + window.height;
+    for (int y = 0; y < roi.height; ++y) {
+        for (int x = 0; x < roi.width; ++x) {
+            if (lab.at<std::uint8_t>(y, x) != kFeature) continue;
+            binaryArea += 1.0;
+            sumX += x;
+            sumY += y;
+            for (const Direction& d : kDirections) {
+                const int qx = x + d.dx, qy = y + d.dy;
+                const cv::Point2d mid(roi.x + x + 0.5 * d.dx, roi.y + y + 0.5 * d.dy);
+                const int gx = roi.x + qx, gy = roi.y + qy;
+                if (gx < 0 || gy < 0 || gx >= imageRect.width || gy >= imageRect.height) {
+                    out.outline.push_back({mid, EdgeKind::ImageEdge, 0.0});
+                    ++out.imageEdgePoints;
+                    continue;
+                }
+                const int lq = label(qx, qy);
+                if (lq == kFeature) continue;
+                if (qx < wx0 || qy < wy0 || qx >= wx1 || qy >= wy1) {
+                    out.outline.push_back({mid, EdgeKind::WindowEdge, 0.0});
+                    ++out.windowEdgePoints;
+                    continue;
+                }
+                if (lq == kOther || label(qx + d.dx, qy + d.dy) == kOther) {
+                    out.outline.push_back({mid, EdgeKind::Contact, 0.0});
+                    ++out.contactPoints;
+                    continue;
+                }
+                ++out.freePoints;
+                if (!subPixel) {
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
+                    freeEdges.push_back({mid, 1.0 / 12.0});
+                    continue;
+                }
+                // Local colours: up to three pixels two steps inside and outside.
+                const int tx = -d.dy, ty = d.dx;  // along the edge
+                cv::Vec3f t(0, 0, 0), b(0, 0, 0);
+                int nt = 0, nb = 0;
+                for (int k = -1; k <= 1; ++k) {
+                    const int ix = x - 2 * d.dx + k * tx, iy = y - 2 * d.dy + k * ty;
+                    if (label(ix, iy) == kFeature) {
+                        t += colour(ix, iy);
+                        ++nt;
+                    }
+                    const int ox = x + 3 * d.dx + k * tx, oy = y + 3 * d.dy + k * ty;
+                    const int lo = label(ox, oy);
+                    if (lo == kOutside || lo == kBackground) {
+                        b += colour(ox, oy);
+                        ++nb;
+                    }
+                }
+                t = nt > 0 ? t * (1.0f / nt) : targetMean;
+                b = nb > 0 ? b * (1.0f / nb) : backgroundMean;
+                // Unmixing: a pixel that sees coverage a of the target and 1 - a
+                // of the background has colour v = beta t + (1 - a) b, where
+                // beta = a c takes the target's shading c at the very edge
+                // (darker than t two pixels inside, on a sphere's limb): with
+                // M = [t | -b], (beta, a) = M^+ (v - b). The target's colour
+                // differs from the background's in its ratios (that is what
+                // the filter found), so t and b are not parallel.
+                const cv::Vec3d tv(t), bv(b);
+                const double mtt = tv.dot(tv), mtb = -tv.dot(bv), mbb = bv.dot(bv);
+                const double det = mtt * mbb - mtb * mtb;
+                if (!(det > 1e-6 * mtt * mbb)) {  // colours (nearly) parallel
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
+                    freeEdges.push_back({mid, 1.0 / 12.0});
+                    continue;
+                }
+                // Row of M^+ that gives a: (-mtb t^T + mtt (-b)^T) / det.
+                const cv::Vec3d w = (tv * (-mtb) - bv * mtt) * (1.0 / det);
+                const double var = w[0] * w[0] * noiseVar[0] + w[1] * w[1] * noiseVar[1] + w[2] * w[2] * noiseVar[2];
+                if (var > 0.15 * 0.15) {  // too little contrast here
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
+                    freeEdges.push_back({mid, 1.0 / 12.0});
+                    continue;
+                }
+                // Coverage of the four pixels across the edge; the edge lies
+                // at e = sum - 1.5 pixels from this pixel's centre.
+                double sum = 0.0, edgeVar = 0.0;
+                for (int k = -1; k <= 2; ++k) {
+                    const int sx = x + k * d.dx, sy = y + k * d.dy;
+                    const int ls = label(sx, sy);
+                    double a;
+                    if (ls == kFeature || ls == kBackground || ls == kOutside) {
+                        a = (cv::Vec3d(colour(sx, sy)) - bv).dot(w);
+                        if (a > 0.0 && a < 1.0) edgeVar += var;
+                        a = std::clamp(a, 0.0, 1.0);
+                    } else {
+                        a = k <= 0 ? 1.0 : 0.0;  // beyond the region or another target: the mask's side
+                    }
+                    sum += a;
+                }
+                const double e = std::clamp(sum - 1.5, -0.5, 1.5);
+                const double delta = e - 0.5;  // outwards from the mask's edge
+                const cv::Point2d p(roi.x + x + e * d.dx, roi.y + y + e * d.dy);
+                out.outline.push_back({p, EdgeKind::Free, std::sqrt(edgeVar)});
+                addedArea += delta;
+                const double along = 0.5 + 0.5 * delta;
+                addedX += delta * (roi.x + x + along * d.dx);
+                addedY += delta * (roi.y + y + along * d.dy);
+                freeEdges.push_back({mid, edgeVar});
+            }
+        }
+    }
+    out.region = roi;
+    out.labels = lab.clone();
+    if (binaryArea <= 0.0) return out;
+    out.area = binaryArea + addedArea;
+    if (!(out.area > 0.0)) out.area = binaryArea;
+    const double cx = (roi.x * binaryArea + sumX + addedX) / out.area;
+    const double cy = (roi.y * binaryArea + sumY + addedY) / out.area;
+    out.centroid = {cx, cy};
+    // Moving an edge by delta moves the centroid by delta (m - c) / A.
+    cv::Matx22d cov(0, 0, 0, 0);
+    for (const FreeEdge& f : freeEdges) {
+        const double dx = f.mid.x - cx, dy = f.mid.y - cy;
+        cov(0, 0) += f.variance * dx * dx;
+        cov(0, 1) += f.variance * dx * dy;
+        cov(1, 1) += f.variance * dy * dy;
+    }
+    cov(1, 0) = cov(0, 1);
+    out.centroidCovariance = cov * (correlation / (out.area * out.area));
+    return out;
+}
+
+}  // namespace avatar::detail

@@ -1,0 +1,79 @@
+#pragma once
+/// @file Silhouette.h
+/// Internal to avatar::analyze: one feature's silhouette as the completeness
+/// checks and the shape models need it (thesis 3.3.3, 3.4.2, 3.6.2, done
+/// with sub-pixel edges). What a binary mask cannot tell:
+/// - where the silhouette edge lies between two pixels: each boundary edge of
+///   the mask is moved to the sub-pixel position where the image's colour
+///   crosses half-way between the target's colour and the background's,
+///   both taken next to that edge (demosaicing and optics blur the edge over
+///   two pixels, so four pixels across it are used);
+/// - what is beyond each part of the edge: free background, the image edge,
+///   the search window's edge, or another target's pixels (contact);
+/// - how well the centroid is known: the noise of the colour at the edge,
+///   measured inside the target, divided by the edge's contrast.
+
+#include <avatar/analyze/Feature.h>
+
+#include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace avatar::detail {
+
+/// What lies beyond a piece of a silhouette's edge.
+enum class EdgeKind : std::uint8_t {
+    Free,        ///< background: the edge is the target's own outline
+    ImageEdge,   ///< the last pixel of the image
+    WindowEdge,  ///< the last pixel of the type's search window
+    Contact      ///< another target's pixels (of any type) within 2 px
+};
+
+/// One piece of the outline: the sub-pixel position of a pixel edge of the
+/// mask's boundary (the midpoint for non-free edges), in distorted pixels.
+struct OutlinePoint {
+    cv::Point2d px;
+    EdgeKind kind{EdgeKind::Free};
+    double sigmaPx{0.0};  ///< standard deviation of its position along the edge normal (free edges)
+};
+
+struct Silhouette {
+    std::vector<OutlinePoint> outline;
+    /// Area and centroid of the region the sub-pixel outline encloses (the
+    /// mask's, holes filled, with each free edge moved to its sub-pixel place).
+    double area{0.0};
+    cv::Point2d centroid;
+    /// Covariance of the centroid from the image noise (px^2).
+    cv::Matx22d centroidCovariance{0, 0, 0, 0};
+    int freePoints{0}, imageEdgePoints{0}, windowEdgePoints{0}, contactPoints{0};
+    /// Standard deviation of one pixel's colour along the target-background
+    /// direction over the edge contrast: the noise of one pixel's coverage.
+    double coverageNoise{0.0};
+    bool subPixel{false};  ///< false when target and background colours were too close to use
+    /// The region examined (full-image coordinates) and its labels: what
+    /// probe() reads.
+    cv::Rect region;
+    cv::Mat labels;
+
+    /// What lies at a pixel position: ImageEdge beyond the image's outer
+    /// pixel edges, WindowEdge beyond the window's, Contact on another
+    /// target's pixels, Free otherwise; @p own is set on this feature's pixels.
+    EdgeKind probe(const cv::Point2d& px, const cv::Size& image, const cv::Rect& window, bool& own) const;
+};
+
+/// Measures @p feature of masks[@p own] (CV_8UC1, the mask the feature was
+/// found in) in @p bgr (the 3-channel image the masks were computed from).
+/// The pixels of every other mask, and the other features of its own, are
+/// other targets. @p window is the type's search window (full-image
+/// coordinates). An empty @p feature mask (a compound's closed union) may be
+/// given in @p ownOverride instead of masks[@p own].
+/// @p correlation multiplies the centroid covariance for the correlation of
+/// neighbouring pixels' noise that demosaicing introduces (measured, see
+/// docs/accuracy.md).
+Silhouette measureSilhouette(const cv::Mat& bgr, const std::vector<cv::Mat>& masks, std::size_t own,
+                             const Feature& feature, const cv::Rect& window, double correlation,
+                             const cv::Mat& ownOverride = cv::Mat());
+
+}  // namespace avatar::detail
