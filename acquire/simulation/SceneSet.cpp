@@ -158,7 +158,7 @@ void addVariations(const SceneSetSpec& spec, const StereoSystemConfig& stereo, c
 
     if (rng.chance(spec.waterProbability)) {
         Lighting& l = s.lighting;
-        l.attenuationPerM = {rng.uniform(0.3, 1.2), rng.uniform(0.03, 0.1), rng.uniform(0.05, 0.25)};
+        l.attenuationPerM = {rng.uniform(0.05, 0.3), rng.uniform(0.01, 0.05), rng.uniform(0.02, 0.12)};
         l.ambient[0] *= rng.uniform(0.4, 0.8);
         l.ambient[2] *= rng.uniform(0.85, 1.0);
         l.background = {0.0, 0.02, 0.03};

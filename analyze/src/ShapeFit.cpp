@@ -157,17 +157,17 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
             continue;
         }
         const double t = -CV_PI + (k + 0.5) * 2.0 * CV_PI / c.bins;
-        // Where the silhouette meets another target, its own pixels stop
-        // at the boundary the two masks share, which erosion and the mixed
-        // pixels between them put up to two pixels inside the ellipse: a
-        // target in front still reaches it there, one behind does not.
+        // Where the silhouette meets another target, it is complete if it
+        // is the nearer of the two and hidden if not: only the depths can
+        // tell (the caller judges; erosion and the mixed pixels between the
+        // two masks put the boundary up to two pixels either side).
         bool ownOn = false, ownIn = false, ownDeep = false;
         const EdgeKind on = probe(toPixel(pointOn(fit.ideal, t, 0.0)), ownOn);
         const EdgeKind in = probe(toPixel(pointOn(fit.ideal, t, 0.75)), ownIn);
-        probe(toPixel(pointOn(fit.ideal, t, 1.75)), ownDeep);
+        const EdgeKind deep = probe(toPixel(pointOn(fit.ideal, t, 1.75)), ownDeep);
         if (on == EdgeKind::ImageEdge || on == EdgeKind::WindowEdge) ++c.cut;
-        else if (ownIn || (ownDeep && (on == EdgeKind::Contact || in == EdgeKind::Contact))) ++c.present;
-        else if (on == EdgeKind::Contact || in == EdgeKind::Contact) ++c.hidden;
+        else if (ownIn) ++c.present;
+        else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
         else ++c.missing;
     }
     c.excess = fit.excessPoints >= std::max(3, fit.points / 50);

@@ -52,7 +52,7 @@ struct RoundCompleteness {
     int supported{0};      ///< bins with an inlier outline point
     int present{0};        ///< unsupported bins where the silhouette still reaches the ellipse
     int cut{0};            ///< unsupported bins beyond the image or window edge
-    int hidden{0};         ///< unsupported bins behind another target
+    int hidden{0};         ///< unsupported bins at another target: hidden if it is nearer
     int missing{0};        ///< unsupported bins with background: hidden by something else, or not an ellipse
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };

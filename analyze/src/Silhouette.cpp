@@ -16,6 +16,7 @@ constexpr std::uint8_t kBackground = 0;
 constexpr std::uint8_t kFeature = 1;
 constexpr std::uint8_t kOther = 2;    ///< another target's pixels
 constexpr std::uint8_t kOutside = 3;  ///< background connected to the region's frame (holes are not)
+constexpr std::uint8_t kFragment = 4; ///< mask pixels of no feature: neither this target nor another
 
 constexpr int kMargin = 4;  ///< region = feature box + this on every side
 
@@ -39,10 +40,11 @@ EdgeKind Silhouette::probe(const cv::Point2d& px, const cv::Size& image, const c
     return l == kOther ? EdgeKind::Contact : EdgeKind::Free;
 }
 
-Silhouette measureSilhouette(const cv::Mat& bgr, const std::vector<cv::Mat>& masks, std::size_t ownIndex,
-                             const Feature& feature, const cv::Rect& window, double correlation,
-                             const cv::Mat& ownOverride) {
+Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const Feature& feature,
+                             const cv::Rect& window, double correlation, const cv::Mat& ownOverride) {
     Silhouette out;
+    const cv::Mat& bgr = work.image;
+    const std::vector<cv::Mat>& masks = work.masks;
     const cv::Mat& ownMask = ownOverride.empty() ? masks.at(ownIndex) : ownOverride;
     const cv::Rect imageRect(0, 0, ownMask.cols, ownMask.rows);
     const cv::Rect box = feature.box;
@@ -59,12 +61,23 @@ Silhouette measureSilhouette(const cv::Mat& bgr, const std::vector<cv::Mat>& mas
     const cv::Point seed = feature.boundary[kTopLeft] - roi.tl();
     if (!cv::Rect(0, 0, roi.width, roi.height).contains(seed) || lab.at<std::uint8_t>(seed) != 255) return out;
     cv::floodFill(lab, seed, cv::Scalar(kFeature), nullptr, cv::Scalar(), cv::Scalar(), 8);
-    lab.setTo(cv::Scalar(kOther), lab == 255);  // the mask's other features
+    // Pixels of every mask: another target's inside a feature's box (not
+    // this feature's), a fragment elsewhere.
+    cv::Mat inBoxes(roi.size(), CV_8UC1);
     for (std::size_t m = 0; m < masks.size(); ++m) {
-        if (m == ownIndex && ownOverride.empty()) continue;
-        cv::Mat others = (masks[m](roi) != 0) & (lab != kFeature);
-        lab.setTo(cv::Scalar(kOther), others);
+        const bool ownType = m == ownIndex && ownOverride.empty();
+        inBoxes.setTo(cv::Scalar(0));
+        if (m < work.features.size())
+            for (const Feature& f : work.features[m]) {
+                if (ownType && f.box == feature.box && f.area == feature.area) continue;
+                const cv::Rect r = f.box & roi;
+                if (!r.empty()) inBoxes(r - roi.tl()).setTo(cv::Scalar(255));
+            }
+        const cv::Mat pixels = ownType ? (lab == 255) : ((masks[m](roi) != 0) & (lab != kFeature));
+        lab.setTo(cv::Scalar(kOther), pixels & inBoxes);
+        lab.setTo(cv::Scalar(kFragment), pixels & ~inBoxes & (lab != kOther));
     }
+    lab.setTo(cv::Scalar(kFragment), lab == 255);  // a compound's union apart from its seed's part
     cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
     lab.setTo(cv::Scalar(kFeature), lab == kBackground);  // holes join the feature
 
@@ -157,6 +170,11 @@ Silhouette measureSilhouette(const cv::Mat& bgr, const std::vector<cv::Mat>& mas
                 if (lq == kOther || label(qx + d.dx, qy + d.dy) == kOther) {
                     out.outline.push_back({mid, EdgeKind::Contact, 0.0});
                     ++out.contactPoints;
+                    continue;
+                }
+                if (lq == kFragment) {
+                    out.outline.push_back({mid, EdgeKind::Fragment, 0.0});
+                    ++out.fragmentPoints;
                     continue;
                 }
                 ++out.freePoints;

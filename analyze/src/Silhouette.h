@@ -14,6 +14,7 @@
 ///   measured inside the target, divided by the edge's contrast.
 
 #include <avatar/analyze/Feature.h>
+#include <avatar/analyze/ProcessStereoImagePair.h>
 
 #include <opencv2/core/mat.hpp>
 #include <opencv2/core/types.hpp>
@@ -28,7 +29,8 @@ enum class EdgeKind : std::uint8_t {
     Free,        ///< background: the edge is the target's own outline
     ImageEdge,   ///< the last pixel of the image
     WindowEdge,  ///< the last pixel of the type's search window
-    Contact      ///< another target's pixels (of any type) within 2 px
+    Contact,     ///< another target's pixels (of any type) within 2 px
+    Fragment     ///< pixels of some filter that belong to no feature: what is there is unknown
 };
 
 /// One piece of the outline: the sub-pixel position of a pixel edge of the
@@ -47,7 +49,7 @@ struct Silhouette {
     cv::Point2d centroid;
     /// Covariance of the centroid from the image noise (px^2).
     cv::Matx22d centroidCovariance{0, 0, 0, 0};
-    int freePoints{0}, imageEdgePoints{0}, windowEdgePoints{0}, contactPoints{0};
+    int freePoints{0}, imageEdgePoints{0}, windowEdgePoints{0}, contactPoints{0}, fragmentPoints{0};
     /// Standard deviation of one pixel's colour along the target-background
     /// direction over the edge contrast: the noise of one pixel's coverage.
     double coverageNoise{0.0};
@@ -63,17 +65,18 @@ struct Silhouette {
     EdgeKind probe(const cv::Point2d& px, const cv::Size& image, const cv::Rect& window, bool& own) const;
 };
 
-/// Measures @p feature of masks[@p own] (CV_8UC1, the mask the feature was
-/// found in) in @p bgr (the 3-channel image the masks were computed from).
-/// The pixels of every other mask, and the other features of its own, are
-/// other targets. @p window is the type's search window (full-image
-/// coordinates). An empty @p feature mask (a compound's closed union) may be
-/// given in @p ownOverride instead of masks[@p own].
+/// Measures @p feature of work.masks[@p own] in work.image (the 3-channel
+/// image the masks were computed from). Other targets are the pixels of the
+/// features of every mask (work.features' boxes), other than this one;
+/// mask pixels outside every feature's box are fragments too small to be a
+/// target, neither the target nor another one (they are left out of the
+/// colour estimates and never count as contact). @p window is the type's
+/// search window (full-image coordinates). A compound's closed union may be
+/// given in @p ownOverride instead of masks[@p own] (own is then ignored).
 /// @p correlation multiplies the centroid covariance for the correlation of
 /// neighbouring pixels' noise that demosaicing introduces (measured, see
 /// docs/accuracy.md).
-Silhouette measureSilhouette(const cv::Mat& bgr, const std::vector<cv::Mat>& masks, std::size_t own,
-                             const Feature& feature, const cv::Rect& window, double correlation,
-                             const cv::Mat& ownOverride = cv::Mat());
+Silhouette measureSilhouette(const ImageWork& work, std::size_t own, const Feature& feature, const cv::Rect& window,
+                             double correlation, const cv::Mat& ownOverride = cv::Mat());
 
 }  // namespace avatar::detail

@@ -191,8 +191,8 @@ std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFram
         bool oneObject = !round;
         if (round) {
             const CameraIntrinsics& camera = side == Side::Left ? config_.stereo.left : config_.stereo.right;
-            const Silhouette s = measureSilhouette(w.image, w.masks, static_cast<std::size_t>(-1), whole.feature,
-                                                   image, limits_.centroidCorrelation, unionMask);
+            const Silhouette s = measureSilhouette(w, static_cast<std::size_t>(-1), whole.feature, image,
+                                                   limits_.centroidCorrelation, unionMask);
             const EllipseFit fit = fitEllipse(camera, s.outline, limits_.minFitThresholdPx);
             if (fit.ok) {
                 const RoundCompleteness c = roundCompleteness(
@@ -277,8 +277,8 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             if (right[o].type == t && rightUse[o] == 0) out.push_back(singleTarget(frame, right[o], Side::Right));
     }
 
-    // A target without a round model that touches another target in a view
-    // is hidden there unless it is nearer than everything it touches.
+    // A target that touches another target in a view is hidden there unless
+    // it is nearer than everything it touches.
     for (const Placed& a : placed) {
         VisionTarget& ta = out[a.target];
         for (int side = 0; side < 2; ++side) {
@@ -334,9 +334,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         const cv::Rect window = searchWindow(types[o.type], w.image.size());
         ViewVerdict& v = views[s];
         v.silhouette = o.unionMask.empty()
-                           ? measureSilhouette(w.image, w.masks, o.members[0].type, o.feature, window,
-                                               limits_.centroidCorrelation)
-                           : measureSilhouette(w.image, w.masks, static_cast<std::size_t>(-1), o.feature, window,
+                           ? measureSilhouette(w, o.members[0].type, o.feature, window, limits_.centroidCorrelation)
+                           : measureSilhouette(w, static_cast<std::size_t>(-1), o.feature, window,
                                                limits_.centroidCorrelation, o.unionMask);
         const Silhouette& sil = v.silhouette;
         v.touchesEdge = sil.imageEdgePoints + sil.windowEdgePoints > 0 || o.feature.touchesBorder;
@@ -354,7 +353,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             });
             const int tolerance = limits_.maxUnsupportedBins;
             v.cut = v.round.cut > tolerance;
-            v.hidden = v.round.hidden > tolerance || v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx;
+            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx;
+            v.contact = v.round.hidden > tolerance;  // judged by depth in assemble()
             // Two round targets in one feature: a waist on either side (or
             // points well outside any one ellipse).
             const double minorRadius = 0.5 * std::min(v.fit.ideal.size.width, v.fit.ideal.size.height);

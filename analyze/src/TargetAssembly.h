@@ -38,10 +38,12 @@ struct CompletenessLimits {
     double maxSphereRadiusMismatch{0.03};  ///< relative, between the two views' radii
     double maxDiscNormalDisagreementRad{0.09};  ///< about 5 degrees
     double maxSizeMismatch{0.04};   ///< relative, of a round target's size between the views
-    double maxAreaMismatch{0.15};   ///< relative, of the range-scaled areas of other shapes
+    double maxAreaMismatch{0.08};   ///< relative, of the range-scaled areas of other shapes
     double minConcavityDepth{0.08};  ///< of a round silhouette's waist, relative to its radius
     double minTypeShare{0.8};       ///< of an object split between filters, for its type to be decided
-    double centroidCorrelation{1.0};  ///< see measureSilhouette()
+    /// Variance factor of the centroid covariance (see measureSilhouette()):
+    /// measured, trust_report --covariance 20 --seed 21 (docs/accuracy.md).
+    double centroidCorrelation{21.0};
 };
 
 class TargetAssembler {

@@ -259,25 +259,28 @@ inline void markCrowded(std::vector<TargetRecord>& records, const render::Scene&
     }
 }
 
+/// The record of truth target @p t of @p truth, nothing detected yet.
+inline TargetRecord truthRecord(const render::GroundTruth& truth, const render::TargetTruth& t) {
+    TargetRecord r;
+    r.scene = truth.sceneName;
+    r.name = t.name;
+    r.type = t.type;
+    r.shape = t.shape;
+    r.truthMm = t.centreLeftMm;
+    r.rangeMm = cv::norm(t.centreLeftMm);
+    r.areaLeftPx = t.left.areaPx;
+    r.fullyVisible = t.left.visibility == render::TargetVisibility::Full &&
+                     t.right.visibility == render::TargetVisibility::Full && t.left.areaPx >= kMinRecallAreaPx &&
+                     t.right.areaPx >= kMinRecallAreaPx;
+    return r;
+}
+
 /// Judges what the pipeline reported on a rendered scene. @p scene (the one
 /// rendered, targets in the truth's order) marks crowded targets when given.
 inline SceneOutcome judge(const VisionTargets& result, const render::GroundTruth& truth,
                           const render::Scene* scene = nullptr, const StereoSystemConfig* stereo = nullptr) {
     SceneOutcome out;
-    for (const auto& t : truth.targets) {
-        TargetRecord r;
-        r.scene = truth.sceneName;
-        r.name = t.name;
-        r.type = t.type;
-        r.shape = t.shape;
-        r.truthMm = t.centreLeftMm;
-        r.rangeMm = cv::norm(t.centreLeftMm);
-        r.areaLeftPx = t.left.areaPx;
-        r.fullyVisible = t.left.visibility == render::TargetVisibility::Full &&
-                         t.right.visibility == render::TargetVisibility::Full && t.left.areaPx >= kMinRecallAreaPx &&
-                         t.right.areaPx >= kMinRecallAreaPx;
-        out.targets.push_back(r);
-    }
+    for (const auto& t : truth.targets) out.targets.push_back(truthRecord(truth, t));
     if (scene && stereo) markCrowded(out.targets, *scene, *stereo);
     for (const VisionTarget& v : result.targets) {
         if (!(v.flags & kTargetStereo) || !v.positionVisionMm) continue;

@@ -44,9 +44,10 @@ struct SceneSetSpec {
     /// Another target in front of one target, overlapping it in one camera
     /// only (the other camera sees the two apart).
     double targetOcclusionProbability{0.0};
-    /// Blue-green water: red attenuated 0.3-1.2 per metre, green 0.03-0.1,
-    /// blue 0.05-0.25, ambient light tinted blue-green, so that colours move
-    /// (and may cross from one filter to another).
+    /// Blue-green water: red attenuated 0.05-0.3 per metre, green 0.01-0.05,
+    /// blue 0.02-0.12 (coastal water: at 2.5 m a target's red/green falls to
+    /// 40-90 %), ambient light tinted blue-green, so that colours move (and
+    /// may cross from one filter to another).
     double waterProbability{0.0};
     /// Lights low: everything x 0.1-0.25, read noise 20-40 DN.
     double darkProbability{0.0};

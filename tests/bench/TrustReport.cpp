@@ -1,0 +1,542 @@
+// trust_report: can an arm trust what the analysis calls whole? (issue
+// "trustworthy targets", docs/accuracy.md "Trust"). On varied rendered scene
+// sets with exact ground truth (targets hiding each other in one view,
+// touching pairs, targets near and across the border, spheres, discs and
+// ducks, blue-green water, dark scenes, colours between two filters, silt):
+//
+// 1. colour filters are measured on a training seed (ratio quantiles of the
+//    targets' pixels, overlaps between colours split at the midpoint);
+// 2. every pair of the report seed is analysed; each reported stereo target
+//    is associated with the truth (any type) and judged: a target flagged
+//    whole whose truth is not whole in both views (strictly: anything of it
+//    hidden or cut) is a false whole;
+// 3. recall, 3-D error by shape and range, signed depth error, the models
+//    used, nine-point against centroid triangulation for targets without a
+//    round model, and the predicted position sigma against the error.
+//
+//   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose]
+//   trust_report --covariance REPEATS [--seed S]   (predicted sigma against the spread)
+
+#include "../analyze/AccuracyHarness.h"
+
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/config/ConfigXml.h>
+#include <avatar/render/Renderer.h>
+#include <avatar/render/SceneSet.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
+using namespace avatar;
+using namespace avatar::accuracy;
+
+namespace {
+
+struct Options {
+    int scenes{60};
+    int trainScenes{30};
+    std::uint64_t trainSeed{11};
+    std::uint64_t seed{12};
+    bool verbose{false};
+    int covarianceRepeats{0};  ///< > 0: only the covariance check, with this many noise seeds
+};
+
+/// The colours; "yellow" targets are ducks (a composite shape), the others
+/// spheres and discs (a round type). No white: the sand of the seabed
+/// (0.55, 0.50, 0.40) would pass any filter that white passes.
+const std::vector<render::TargetColour> kColours{{"yellow", {0.92, 0.72, 0.04}},
+                                                 {"red", {0.8, 0.08, 0.06}},
+                                                 {"orange", {0.95, 0.42, 0.05}},
+                                                 {"green", {0.12, 0.6, 0.15}},
+                                                 {"magenta", {0.7, 0.12, 0.55}}};
+
+std::vector<render::Scene> scenes(int count, std::uint64_t seed, const StereoSystemConfig& stereo,
+                                  const render::SensorFormat& sensor) {
+    render::SceneSetSpec spec;
+    spec.count = count;
+    spec.seed = seed;
+    spec.minRangeMm = 500.0;
+    spec.maxRangeMm = 2500.0;
+    spec.colours = kColours;
+    spec.touchingProbability = 0.3;
+    spec.targetOcclusionProbability = 0.5;
+    spec.waterProbability = 0.3;
+    spec.darkProbability = 0.2;
+    spec.mixedColourProbability = 0.3;
+    spec.siltProbability = 0.15;
+    std::vector<render::Scene> out = render::makeSceneSet(spec, stereo, sensor, "trust");
+    for (std::size_t k = 0; k < out.size(); ++k)
+        for (std::size_t i = 0; i < out[k].targets.size(); ++i) {
+            render::TargetSpec& t = out[k].targets[i];
+            if (t.type == "yellow") {
+                if (t.shape != render::Shape::Duck) {
+                    t.shape = render::Shape::Duck;
+                    t.om = {0.0, 0.7 * static_cast<double>(i + k), 0.0};
+                }
+            } else if (t.shape == render::Shape::Duck) {
+                t.shape = (i + k) % 2 ? render::Shape::Sphere : render::Shape::Disc;
+            }
+        }
+    return out;
+}
+
+std::uint64_t renderSeed(std::uint64_t seed, std::size_t index) { return seed * 1000003ULL + index + 1; }
+
+render::RenderResult renderScene(const render::Scene& scene, const StereoSystemConfig& stereo,
+                                 const render::SensorFormat& sensor, std::uint64_t seed) {
+    render::RenderOptions ro;
+    ro.sensor = sensor;
+    ro.seed = seed;
+    return render::render(scene, stereo, ro);
+}
+
+/// A configuration with one type per colour, filters still open.
+AvatarConfig baseConfig() {
+    AvatarConfig c = readConfigFile(dataDir() / "config/scorpion.xml");
+    const TargetType sample = c.targets.targets.front();
+    c.targets.targets.clear();
+    for (const auto& colour : kColours) {
+        TargetType t = sample;
+        t.name = colour.name;
+        t.shape = colour.name == "yellow" ? TargetShape::Composite : TargetShape::Sphere;
+        t.area = {150.0, 400000.0};
+        t.aspectRatio = {0.25, 4.0};
+        t.areaRatio = {0.35, 1.0};
+        t.redGreen = {0.0, 1e6};
+        t.redBlue = {0.0, 1e6};
+        t.blueGreen = {0.0, 1e6};
+        c.targets.targets.push_back(t);
+    }
+    return c;
+}
+
+/// Measures each colour's R/G and B/G on the training scenes (pixels within
+/// 0.55 of the equivalent radius of fully visible targets, in the analysed
+/// image) and sets the filters: 0.2-99.8 % quantiles widened by 5 %, then
+/// where two colours' boxes overlap in both ratios, the ratio whose medians
+/// differ most is split at the midpoint of the overlap (in log).
+AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, const render::SensorFormat& sensor) {
+    AvatarConfig config = baseConfig();
+    AnalyzeStereoImagePair analysis(config);
+    std::map<std::string, std::vector<double>> rg, bg;
+    const auto train = scenes(o.trainScenes, o.trainSeed, stereo, sensor);
+    for (std::size_t k = 0; k < train.size(); ++k) {
+        const auto rr = renderScene(train[k], stereo, sensor, renderSeed(o.trainSeed, k));
+        analysis.analyze(rr.pair, k);
+        for (const auto& t : rr.truth.targets) {
+            if (t.name.rfind("mix_", 0) == 0) continue;  // between two colours by design
+            for (int s = 0; s < 2; ++s) {
+                const render::TargetView& v = s == 0 ? t.left : t.right;
+                if (v.visibility != render::TargetVisibility::Full || v.areaPx < 300.0) continue;
+                const cv::Mat& img = analysis.lastFrame().at(s == 0 ? Side::Left : Side::Right).image;
+                const double r = 0.55 * std::sqrt(v.areaPx / M_PI);
+                const cv::Point2d c = *v.silhouetteCentroidPx;
+                for (int y = static_cast<int>(c.y - r); y <= static_cast<int>(c.y + r); ++y)
+                    for (int x = static_cast<int>(c.x - r); x <= static_cast<int>(c.x + r); ++x) {
+                        if (x < 0 || y < 0 || x >= img.cols || y >= img.rows || std::hypot(x - c.x, y - c.y) > r) continue;
+                        double b, g, red;
+                        if (img.depth() == CV_16U) {
+                            const auto p = img.at<cv::Vec3w>(y, x);
+                            b = p[0], g = p[1], red = p[2];
+                        } else {
+                            const auto p = img.at<cv::Vec3b>(y, x);
+                            b = p[0], g = p[1], red = p[2];
+                        }
+                        if (g <= 0.0) continue;
+                        rg[t.type].push_back(std::log(std::max(red, 0.5) / g));
+                        bg[t.type].push_back(std::log(std::max(b, 0.5) / g));
+                    }
+            }
+        }
+    }
+    struct Box {
+        double lo[2], hi[2], median[2];
+    };
+    std::map<std::string, Box> boxes;
+    for (const auto& colour : kColours) {
+        auto& a = rg[colour.name];
+        auto& b = bg[colour.name];
+        if (a.empty()) throw InvalidArgument("trust_report: no training pixels of " + colour.name);
+        Box box{};
+        const std::vector<double>* v[2] = {&a, &b};
+        for (int d = 0; d < 2; ++d) {
+            box.lo[d] = quantile(*v[d], 0.002) - 0.05;
+            box.hi[d] = quantile(*v[d], 0.998) + 0.05;
+            box.median[d] = quantile(*v[d], 0.5);
+        }
+        boxes[colour.name] = box;
+    }
+    for (auto i = boxes.begin(); i != boxes.end(); ++i)
+        for (auto j = std::next(i); j != boxes.end(); ++j) {
+            Box& p = i->second;
+            Box& q = j->second;
+            const bool overlap0 = p.lo[0] < q.hi[0] && q.lo[0] < p.hi[0];
+            const bool overlap1 = p.lo[1] < q.hi[1] && q.lo[1] < p.hi[1];
+            if (!overlap0 || !overlap1) continue;
+            const int d = std::abs(p.median[0] - q.median[0]) >= std::abs(p.median[1] - q.median[1]) ? 0 : 1;
+            Box& low = p.median[d] < q.median[d] ? p : q;
+            Box& high = p.median[d] < q.median[d] ? q : p;
+            const double cut = 0.5 * (std::max(low.hi[d], high.lo[d]) + std::min(low.hi[d], high.lo[d]));
+            low.hi[d] = std::min(low.hi[d], cut);
+            high.lo[d] = std::max(high.lo[d], cut);
+        }
+    for (TargetType& t : config.targets.targets) {
+        const Box& b = boxes[t.name];
+        t.redGreen = {std::exp(b.lo[0]), std::exp(b.hi[0])};
+        t.blueGreen = {std::exp(b.lo[1]), std::exp(b.hi[1])};
+        std::printf("| %-6s | %.3f-%.3f | %.3f-%.3f | %zu |\n", t.name.c_str(), t.redGreen.min, t.redGreen.max,
+                    t.blueGreen.min, t.blueGreen.max, rg[t.name].size());
+    }
+    validateConfig(config);
+    return config;
+}
+
+/// The truth target (any type) whose visible silhouette centroid is nearest
+/// to @p px within half its equivalent radius + 2 px; -1 if none.
+int nearestTruth(const render::GroundTruth& truth, Side side, const cv::Point2d& px) {
+    int best = -1;
+    double bestD = 1e300;
+    for (std::size_t i = 0; i < truth.targets.size(); ++i) {
+        const render::TargetView& v = side == Side::Left ? truth.targets[i].left : truth.targets[i].right;
+        if (!v.silhouetteCentroidPx) continue;
+        const double d = cv::norm(*v.silhouetteCentroidPx - px);
+        if (d <= 0.5 * std::sqrt(v.areaPx / M_PI) + 2.0 && d < bestD) {
+            bestD = d;
+            best = static_cast<int>(i);
+        }
+    }
+    return best;
+}
+
+struct Hit {
+    TargetRecord record;
+    ShapeModel model{ShapeModel::None};
+    double sigmaMm{0.0};       ///< sqrt of the covariance's trace
+    double depthErrorMm{0.0};  ///< signed, along z of the left camera
+};
+
+struct Tally {
+    int truthWhole{0}, crowdedWhole{0}, recalled{0}, reportedAny{0};
+    int mixedWhole{0}, mixedFound{0};  ///< of a colour between two filters' (not in the recall)
+    int stereo{0}, whole{0};
+    int falseWhole{0}, falseWholeHidden1pc{0}, falseWholeFar{0};
+    int wholeSpurious{0}, wholeWrongMatch{0}, wholeWrongType{0}, duplicates{0};
+    std::map<std::string, int> falseReasons;
+    std::vector<Hit> hits;        ///< truth whole, reported whole with its type
+    std::vector<Hit> hitsNine;    ///< the same with the nine-point option
+    std::vector<std::string> misses, falses;
+};
+
+void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, const VisionTargets& result,
+                const VisionTargets& nine, const StereoSystemConfig& stereo, Tally& tally) {
+    std::vector<TargetRecord> records;
+    for (const auto& t : truth.targets) records.push_back(truthRecord(truth, t));
+    markCrowded(records, scene, stereo);
+    std::vector<bool> found(records.size(), false), foundAny(records.size(), false);
+    const auto judgeOne = [&](const VisionTarget& v, bool count, std::vector<Hit>* hits) {
+        if (!(v.flags & kTargetStereo) || !v.positionVisionMm) return;
+        if (count) ++tally.stereo;
+        const bool whole = v.flags & kTargetWhole;
+        if (count && whole) ++tally.whole;
+        const int l = nearestTruth(truth, Side::Left, *v.centroidLeftPx);
+        const int r = nearestTruth(truth, Side::Right, *v.centroidRightPx);
+        const auto fail = [&](const std::string& reason, const std::string& what) {
+            if (!count) return;
+            ++tally.falseWhole;
+            ++tally.falseReasons[reason];
+            tally.falses.push_back(truth.sceneName + "/" + what + " (" + reason + ", " + targetFlagsText(v.flags) + ")");
+        };
+        if (l < 0 || r < 0) {
+            if (whole) {
+                if (count) ++tally.wholeSpurious;
+                // A box made nearly of a target's colour (a look-alike)?
+                bool lookAlike = false;
+                for (const auto& o : scene.occluders) {
+                    if (o.name.rfind("distractor_", 0) != 0) continue;
+                    const auto d = imageDisc(stereo.left, cv::Point3d(o.centreMm), cv::norm(o.halfSizeMm));
+                    lookAlike = lookAlike || (d && cv::norm(d->centrePx - *v.centroidLeftPx) < d->radiusPx);
+                }
+                fail(lookAlike ? "look-alike box" : "spurious", v.type);
+            }
+            return;
+        }
+        if (l != r) {
+            if (whole) {
+                if (count) ++tally.wholeWrongMatch;
+                fail("wrong match", v.type);
+            }
+            return;
+        }
+        const auto i = static_cast<std::size_t>(l);
+        const render::TargetTruth& t = truth.targets[i];
+        TargetRecord rec = records[i];
+        rec.detected = true;
+        rec.measuredMm = *v.positionVisionMm;
+        rec.errorMm = cv::norm(rec.measuredMm - rec.truthMm);
+        if (count) foundAny[i] = true;
+        if (!whole) return;
+        const bool truthWhole = t.left.visibility == render::TargetVisibility::Full &&
+                                t.right.visibility == render::TargetVisibility::Full;
+        if (!truthWhole) {
+            const double hidden = std::max(t.left.hiddenFraction(), t.right.hiddenFraction());
+            const bool cut = t.left.cut || t.right.cut;
+            if (count && (hidden > 0.01 || cut)) ++tally.falseWholeHidden1pc;
+            if (count && rec.errorMm > 5.0) ++tally.falseWholeFar;
+            char what[160];
+            std::snprintf(what, sizeof what, "%s hidden %.1f%%/%.1f%%%s, %.1f mm off", t.name.c_str(),
+                          100.0 * t.left.hiddenFraction(), 100.0 * t.right.hiddenFraction(), cut ? " cut" : "",
+                          rec.errorMm);
+            fail(t.left.cut || t.right.cut ? "cut" : "hidden", what);
+            return;
+        }
+        if (v.type != t.type) {
+            if (count) ++tally.wholeWrongType;
+            fail("wrong type", t.name + " as " + v.type);
+            return;
+        }
+        if (count && found[i]) {
+            ++tally.duplicates;
+            return;
+        }
+        if (count) found[i] = true;
+        if (hits && !records[i].crowded) {
+            Hit h;
+            h.record = rec;
+            h.model = v.model;
+            if (v.covarianceVisionMm2) {
+                const auto& c = *v.covarianceVisionMm2;
+                h.sigmaMm = std::sqrt(c(0, 0) + c(1, 1) + c(2, 2));
+            }
+            h.depthErrorMm = rec.measuredMm.z - rec.truthMm.z;
+            hits->push_back(h);
+        }
+    };
+    for (const VisionTarget& v : result.targets) judgeOne(v, true, &tally.hits);
+    for (const VisionTarget& v : nine.targets) judgeOne(v, false, &tally.hitsNine);
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        if (!records[i].fullyVisible) continue;
+        if (records[i].crowded) {
+            ++tally.crowdedWhole;
+            continue;
+        }
+        if (records[i].name.rfind("mix_", 0) == 0) {
+            ++tally.mixedWhole;
+            tally.mixedFound += found[i];
+            continue;
+        }
+        ++tally.truthWhole;
+        tally.recalled += found[i];
+        tally.reportedAny += foundAny[i];
+        if (!found[i]) {
+            char what[200];
+            std::snprintf(what, sizeof what, "%s/%s %s %s %.0f mm %.0f px%s", truth.sceneName.c_str(),
+                          records[i].name.c_str(), records[i].type.c_str(),
+                          std::string(render::toString(records[i].shape)).c_str(), records[i].rangeMm,
+                          records[i].areaLeftPx, foundAny[i] ? " (reported, not whole)" : "");
+            tally.misses.push_back(what);
+        }
+    }
+}
+
+std::string fmt(double v, int digits = 2) {
+    if (std::isnan(v)) return "-";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+    return buf;
+}
+
+void row(const std::string& label, const std::vector<Hit>& hits) {
+    std::vector<double> e, depth, ratio;
+    for (const Hit& h : hits) {
+        e.push_back(h.record.errorMm);
+        depth.push_back(h.depthErrorMm);
+        if (h.sigmaMm > 0.0) ratio.push_back(h.record.errorMm / h.sigmaMm);
+    }
+    std::printf("| %-28s | %4zu | %6s | %6s | %6s | %7s | %7s |\n", label.c_str(), hits.size(),
+                fmt(quantile(e, 0.5)).c_str(), fmt(quantile(e, 0.95)).c_str(),
+                fmt(e.empty() ? NAN : *std::max_element(e.begin(), e.end())).c_str(), fmt(quantile(depth, 0.5), 3).c_str(),
+                fmt(quantile(ratio, 0.5)).c_str());
+}
+
+std::vector<Hit> pick(const std::vector<Hit>& hits, bool (*keep)(const Hit&)) {
+    std::vector<Hit> out;
+    for (const Hit& h : hits)
+        if (keep(h)) out.push_back(h);
+    return out;
+}
+
+std::vector<Hit> inRange(const std::vector<Hit>& hits, double lo, double hi, bool roundOnly) {
+    std::vector<Hit> out;
+    for (const Hit& h : hits)
+        if (h.record.rangeMm >= lo && h.record.rangeMm < hi && (!roundOnly || h.record.shape != render::Shape::Duck))
+            out.push_back(h);
+    return out;
+}
+
+/// Predicted position sigma against the spread over noise seeds: the
+/// precision scene (six yellow spheres and discs, 0.65-0.95 m) rendered
+/// @p repeats times; per target and axis, the measured standard deviation
+/// over the RMS of the predicted ones.
+void runCovariance(std::uint64_t seed, int repeats, const StereoSystemConfig& stereo,
+                   const render::SensorFormat& sensor) {
+    AvatarConfig config = readConfigFile(dataDir() / "config/scorpion.xml");
+    for (auto& t : config.targets.targets) t.shape = TargetShape::Sphere;
+    AnalyzeStereoImagePair analysis(config);
+    const render::Scene scene = precisionScene();
+    std::map<std::string, std::vector<cv::Point3d>> points;
+    std::map<std::string, cv::Point3d> predictedVar;
+    std::map<std::string, std::string> shapes;
+    for (int k = 0; k < repeats; ++k) {
+        const auto rr = renderScene(scene, stereo, sensor, renderSeed(seed, static_cast<std::size_t>(k)));
+        const VisionTargets result = analysis.analyze(rr.pair, static_cast<std::uint64_t>(k));
+        for (const VisionTarget& v : result.targets) {
+            if (!(v.flags & kTargetWhole) || !v.covarianceVisionMm2) continue;
+            const int i = nearestTruth(rr.truth, Side::Left, *v.centroidLeftPx);
+            if (i < 0) continue;
+            const std::string& name = rr.truth.targets[static_cast<std::size_t>(i)].name;
+            shapes[name] = std::string(render::toString(rr.truth.targets[static_cast<std::size_t>(i)].shape));
+            points[name].push_back(*v.positionVisionMm);
+            const auto& c = *v.covarianceVisionMm2;
+            predictedVar[name] += cv::Point3d(c(0, 0), c(1, 1), c(2, 2));
+        }
+    }
+    std::printf("\n## Predicted sigma against the spread over %d noise seeds (seed %llu)\n\n", repeats,
+                static_cast<unsigned long long>(seed));
+    std::printf("| target | shape | n | measured sx sy sz mm | predicted sx sy sz mm | measured / predicted x y z |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    std::vector<double> ratios;
+    for (const auto& [name, p] : points) {
+        const Spread sp = spread(p);
+        const cv::Point3d var = predictedVar[name] * (1.0 / static_cast<double>(p.size()));
+        const cv::Point3d pred(std::sqrt(var.x), std::sqrt(var.y), std::sqrt(var.z));
+        const cv::Point3d ratio(sp.sigmaMm.x / pred.x, sp.sigmaMm.y / pred.y, sp.sigmaMm.z / pred.z);
+        ratios.insert(ratios.end(), {ratio.x, ratio.y, ratio.z});
+        std::printf("| %s | %s | %zu | %.3f %.3f %.3f | %.3f %.3f %.3f | %.2f %.2f %.2f |\n", name.c_str(),
+                    shapes[name].c_str(), p.size(), sp.sigmaMm.x, sp.sigmaMm.y, sp.sigmaMm.z, pred.x, pred.y, pred.z,
+                    ratio.x, ratio.y, ratio.z);
+    }
+    std::printf("\nMedian measured / predicted: %.2f\n", quantile(ratios, 0.5));
+}
+
+void usage() {
+    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--covariance REPEATS]\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        const auto value = [&]() -> std::string {
+            if (i + 1 >= argc) {
+                usage();
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (a == "--scenes") o.scenes = std::atoi(value().c_str());
+        else if (a == "--train-scenes") o.trainScenes = std::atoi(value().c_str());
+        else if (a == "--train-seed") o.trainSeed = std::strtoull(value().c_str(), nullptr, 10);
+        else if (a == "--seed") o.seed = std::strtoull(value().c_str(), nullptr, 10);
+        else if (a == "--verbose") o.verbose = true;
+        else if (a == "--covariance") o.covarianceRepeats = std::atoi(value().c_str());
+        else if (a == "--help" || a == "-h") {
+            usage();
+            return 0;
+        } else {
+            usage();
+            return 2;
+        }
+    }
+    if (o.scenes < 1 || o.trainScenes < 1) {
+        usage();
+        return 2;
+    }
+    try {
+        const auto start = std::chrono::steady_clock::now();
+        const AvatarConfig scorpion = readConfigFile(dataDir() / "config/scorpion.xml");
+        const render::SensorFormat sensor = render::sensorFormatFrom(scorpion.camera);
+        if (o.covarianceRepeats > 1) {
+            runCovariance(o.seed, o.covarianceRepeats, scorpion.stereo, sensor);
+            return 0;
+        }
+        std::printf("# AVATAR trust report\n\nFilters from %d training scenes of seed %llu (R/G, B/G, pixels):\n\n",
+                    o.trainScenes, static_cast<unsigned long long>(o.trainSeed));
+        std::printf("| type   | R/G | B/G | pixels |\n|--------|-----|-----|--------|\n");
+        const AvatarConfig config = trainFilters(o, scorpion.stereo, sensor);
+        AvatarConfig nineConfig = config;
+        nineConfig.analysis.triangulation = TriangulationMode::NinePoints;
+        AnalyzeStereoImagePair analysis(config), nine(nineConfig);
+        Tally tally;
+        const auto set = scenes(o.scenes, o.seed, scorpion.stereo, sensor);
+        int truthTargets = 0;
+        for (std::size_t k = 0; k < set.size(); ++k) {
+            const auto rr = renderScene(set[k], scorpion.stereo, sensor, renderSeed(o.seed, k));
+            truthTargets += static_cast<int>(rr.truth.targets.size());
+            const VisionTargets result = analysis.analyze(rr.pair, k);
+            const VisionTargets resultNine = nine.analyze(rr.pair, k);
+            const std::size_t falsesBefore = tally.falses.size(), missesBefore = tally.misses.size();
+            judgeScene(set[k], rr.truth, result, resultNine, scorpion.stereo, tally);
+            if (o.verbose && (tally.falses.size() > falsesBefore || tally.misses.size() > missesBefore)) {
+                std::fprintf(stderr, "scene %s\n", rr.truth.sceneName.c_str());
+                for (const auto& t : rr.truth.targets)
+                    std::fprintf(stderr, "  truth %s %s %s (%.1f %.1f %.1f) L %s %.0f px hidden %.3f R %s %.0f px hidden %.3f\n",
+                                 t.name.c_str(), t.type.c_str(), std::string(render::toString(t.shape)).c_str(),
+                                 t.centreLeftMm.x, t.centreLeftMm.y, t.centreLeftMm.z,
+                                 std::string(render::toString(t.left.visibility)).c_str(), t.left.areaPx,
+                                 t.left.hiddenFraction(), std::string(render::toString(t.right.visibility)).c_str(),
+                                 t.right.areaPx, t.right.hiddenFraction());
+                for (const auto& v : result.targets)
+                    if (v.flags & kTargetStereo)
+                        std::fprintf(stderr, "  found %s [%s] %s L (%.1f %.1f) P (%.1f %.1f %.1f)\n", v.type.c_str(),
+                                     targetFlagsText(v.flags).c_str(), std::string(toString(v.model)).c_str(),
+                                     v.centroidLeftPx->x, v.centroidLeftPx->y, v.positionVisionMm->x,
+                                     v.positionVisionMm->y, v.positionVisionMm->z);
+            }
+        }
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::printf("\n## Seed %llu: %d scenes, %d truth targets, 0.5-2.5 m (%.0f s)\n\n",
+                    static_cast<unsigned long long>(o.seed), o.scenes, truthTargets, seconds);
+        std::printf("| whole in truth | crowded | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | false whole | of them >1%% hidden or cut | >5 mm off | spurious | wrong match | wrong type | duplicates |\n");
+        std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        std::printf("| %d | %d | %d (%d) | %d | %s | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d |\n", tally.truthWhole,
+                    tally.crowdedWhole, tally.mixedWhole, tally.mixedFound, tally.recalled,
+                    fmt(tally.truthWhole ? 100.0 * tally.recalled / tally.truthWhole : NAN).c_str(), tally.reportedAny,
+                    tally.stereo, tally.whole, tally.falseWhole, tally.falseWholeHidden1pc, tally.falseWholeFar,
+                    tally.wholeSpurious, tally.wholeWrongMatch, tally.wholeWrongType, tally.duplicates);
+        std::printf("\n3-D error of whole targets (mm; depth = signed median z error; err/sigma = median of error over the predicted sigma):\n\n");
+        std::printf("| %-28s | %4s | %6s | %6s | %6s | %7s | %7s |\n", "targets", "n", "median", "p95", "max", "depth",
+                    "err/sig");
+        std::printf("|------------------------------|------|--------|--------|--------|---------|---------|\n");
+        const auto isRound = [](const Hit& h) { return h.record.shape != render::Shape::Duck; };
+        row("spheres and discs", pick(tally.hits, isRound));
+        row("spheres", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Sphere; }));
+        row("discs", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Disc; }));
+        row("ducks (composite, centroid)", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Duck; }));
+        row("ducks, nine-point option", pick(tally.hitsNine, [](const Hit& h) { return h.record.shape == render::Shape::Duck; }));
+        for (double lo = 500.0; lo < 2500.0; lo += 500.0)
+            row("round, " + fmt(lo / 1000.0, 1) + "-" + fmt((lo + 500.0) / 1000.0, 1) + " m", inRange(tally.hits, lo, lo + 500.0, true));
+        row("round, 0.5-1.5 m", inRange(tally.hits, 500.0, 1500.0, true));
+        std::map<std::string, int> models;
+        for (const Hit& h : tally.hits)
+            ++models[std::string(render::toString(h.record.shape)) + " by " + std::string(toString(h.model))];
+        std::printf("\nModels used (truth shape by model): ");
+        for (const auto& [k, n] : models) std::printf("%s %d; ", k.c_str(), n);
+        std::printf("\nFalse whole by reason: ");
+        for (const auto& [k, n] : tally.falseReasons) std::printf("%s %d; ", k.c_str(), n);
+        std::printf("\n");
+        for (const auto& f : tally.falses) std::printf("- false whole: %s\n", f.c_str());
+        for (const auto& m : tally.misses) std::printf("- missed: %s\n", m.c_str());
+        std::fflush(stdout);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "trust_report: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}
