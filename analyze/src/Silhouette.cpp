@@ -225,10 +225,16 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     freeEdges.push_back({mid, 1.0 / 12.0});
                     continue;
                 }
-                // Coverage of the four pixels across the edge; the edge lies
-                // at e = sum - 1.5 pixels from this pixel's centre.
+                // Coverage of the five pixels across the edge (one inside the
+                // mask, three beyond it: where the target darkens towards its
+                // limb, the filter may stop a pixel or two short of the
+                // edge); the edge lies at e = sum - 1.5 pixels from this
+                // pixel's centre.
                 double sum = 0.0, edgeVar = 0.0;
-                for (int k = -1; k <= 2; ++k) {
+                double previous = 1.0;
+                for (int k = -1; k <= 3; ++k) {
+                    // The fifth pixel only while the edge has not been crossed.
+                    if (k == 3 && previous < 0.25) break;
                     const int sx = x + k * d.dx, sy = y + k * d.dy;
                     const int ls = label(sx, sy);
                     double a;
@@ -240,8 +246,9 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                         a = k <= 0 ? 1.0 : 0.0;  // beyond the region or another target: the mask's side
                     }
                     sum += a;
+                    previous = a;
                 }
-                const double e = std::clamp(sum - 1.5, -0.5, 1.5);
+                const double e = std::clamp(sum - 1.5, -0.5, 2.5);
                 const double delta = e - 0.5;  // outwards from the mask's edge
                 const cv::Point2d p(roi.x + x + e * d.dx, roi.y + y + e * d.dy);
                 out.outline.push_back({p, EdgeKind::Free, std::sqrt(edgeVar)});

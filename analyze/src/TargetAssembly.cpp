@@ -1,6 +1,5 @@
 #include "TargetAssembly.h"
 
-#include "NinePointTriangulation.h"
 #include "ShapeFit.h"
 #include "Silhouette.h"
 
@@ -106,14 +105,17 @@ struct TargetAssembler::Object {
     cv::Mat unionMask;   ///< full-image mask of a compound; empty for one feature
     std::size_t type{0};      ///< the type holding most of it
     double typeShare{1.0};    ///< that type's share of its area
+    /// The share below which its type is undecided: a union whose shape no
+    /// model checks may as well be two touching targets, so only a trace of
+    /// the other filter leaves it decided.
+    double minShare{0.0};
 };
 
 TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits limits)
     : config_(config),
       limits_(limits),
       calculator_(stereoGeometry(config.stereo)),
-      rightRLeft_(rotationMatrix(rightTLeft(config.stereo))),
-      ninePoints_(config.analysis.triangulation == TriangulationMode::NinePoints) {}
+      rightRLeft_(rotationMatrix(rightTLeft(config.stereo))) {}
 
 std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFrame& frame, Side side) const {
     const ImageWork& w = frame.at(side);
@@ -189,6 +191,7 @@ std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFram
         for (const auto& [t, a] : area) round = round && types[t].shape != TargetShape::None &&
                                                 types[t].shape != TargetShape::Composite;
         bool oneObject = !round;
+        whole.minShare = round ? limits_.minTypeShare : limits_.minTypeShareUnchecked;
         if (round) {
             const CameraIntrinsics& camera = side == Side::Left ? config_.stereo.left : config_.stereo.right;
             const Silhouette s = measureSilhouette(w, static_cast<std::size_t>(-1), whole.feature, image,
@@ -320,7 +323,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const bool coverage = config_.analysis.centroid == CentroidMode::Coverage;
     const TargetShape declared = type.shape;
     const bool round = declared == TargetShape::Sphere || declared == TargetShape::Disc;
-    if (left.typeShare < limits_.minTypeShare || right.typeShare < limits_.minTypeShare || left.type != right.type ||
+    if (left.typeShare < left.minShare || right.typeShare < right.minShare || left.type != right.type ||
         conflict)
         target.flags |= kTargetAmbiguous;
 
@@ -359,12 +362,21 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // points well outside any one ellipse).
             const double minorRadius = 0.5 * std::min(v.fit.ideal.size.width, v.fit.ideal.size.height);
             const int waists = freeConcavities(sil, std::max(2.0, limits_.minConcavityDepth * minorRadius));
-            v.merged = v.round.excess || waists >= 2;
+            // A ragged limb (a dark side the filter passes only in part)
+            // has concavities too, but its outline still fits one ellipse.
+            v.merged = v.round.excess || (waists >= 2 && v.fit.rmsPx > limits_.maxFitRmsPx);
             if (v.merged) v.hidden = false;  // what it is, not what hides it
             v.roundFits = !v.cut && !v.hidden && !v.merged;
             v.modelUsable = !v.merged && v.fit.rmsPx <= limits_.maxFitRmsPx && 2 * v.round.supported >= v.round.bins;
         } else {
-            v.cut = v.touchesEdge;  // judged against the other view below
+            // Without a model nothing tells a silhouette that ends at an
+            // edge from one cut by it (the filter often loses the last dim
+            // pixels, so a cut one may stop short of the edge): within
+            // kNearEdgePx of the image's or the window's edge it is cut.
+            const cv::Rect& b = o.feature.box;
+            const int near = limits_.nearEdgePx;
+            const cv::Rect inner(window.x + near, window.y + near, window.width - 2 * near, window.height - 2 * near);
+            v.cut = v.touchesEdge || (b & inner) != b;
             v.contact = sil.contactPoints > 0;
         }
     }
@@ -423,8 +435,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     };
     const cv::Point2d cl = centroid(views[0], fl), cr = centroid(views[1], fr);
     if (!point) {
-        if (ninePoints_) point = triangulateNinePoints(calculator_, fl, fr, cl, cr);
-        if (!point) point = calculator_.triangulate(cl, cr);
+        point = calculator_.triangulate(cl, cr);
         pl = cl;
         pr = cr;
         if (model != ShapeModel::Composite) model = ShapeModel::None;
@@ -468,10 +479,6 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     if (!round) {
         const double limit = limits_.maxAreaMismatch;
         if (mismatch > limit) target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
-        // An edge-touching view is only touching when the other view does not
-        // touch and the sizes agree.
-        const bool edgeL = views[0].touchesEdge, edgeR = views[1].touchesEdge;
-        if (edgeL != edgeR && mismatch <= 0.5 * limit) target.flags &= ~static_cast<std::uint32_t>(kTargetCut);
     } else if (model == ShapeModel::None && views[0].roundFits && views[1].roundFits &&
                mismatch > limits_.maxSizeMismatch) {
         target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
@@ -484,7 +491,7 @@ VisionTarget TargetAssembler::singleTarget(const AnalysisFrame& frame, const Obj
     VisionTarget target;
     target.type = config_.targets.targets[object.type].name;
     target.flags = side == Side::Left ? kTargetLeftOnly : kTargetRightOnly;
-    if (object.typeShare < limits_.minTypeShare) target.flags |= kTargetAmbiguous;
+    if (object.typeShare < object.minShare) target.flags |= kTargetAmbiguous;
     const Feature& f = object.feature;
     const cv::Rect window = searchWindow(config_.targets.targets[object.type], frame.at(side).image.size());
     const bool atWindow = f.box.x <= window.x || f.box.y <= window.y ||

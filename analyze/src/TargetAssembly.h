@@ -38,12 +38,16 @@ struct CompletenessLimits {
     double maxSphereRadiusMismatch{0.03};  ///< relative, between the two views' radii
     double maxDiscNormalDisagreementRad{0.09};  ///< about 5 degrees
     double maxSizeMismatch{0.04};   ///< relative, of a round target's size between the views
-    double maxAreaMismatch{0.08};   ///< relative, of the range-scaled areas of other shapes
+    double maxAreaMismatch{0.08};
+    /// A target without a round model this close to the image's or the
+    /// search window's edge (px) is cut.
+    int nearEdgePx{3};   ///< relative, of the range-scaled areas of other shapes
     double minConcavityDepth{0.08};  ///< of a round silhouette's waist, relative to its radius
     double minTypeShare{0.8};       ///< of an object split between filters, for its type to be decided
+    double minTypeShareUnchecked{0.97};  ///< the same when a type of the object has no round model
     /// Variance factor of the centroid covariance (see measureSilhouette()):
     /// measured, trust_report --covariance 20 --seed 21 (docs/accuracy.md).
-    double centroidCorrelation{21.0};
+    double centroidCorrelation{15.0};
 };
 
 class TargetAssembler {
@@ -73,7 +77,6 @@ private:
     CompletenessLimits limits_;
     StereoCoordinateCalculator calculator_;
     cv::Matx33d rightRLeft_;
-    bool ninePoints_;
 };
 
 }  // namespace avatar::detail

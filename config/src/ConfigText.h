@@ -81,9 +81,9 @@ struct EnumWords<CentroidMode> {
 
 template <>
 struct EnumWords<TriangulationMode> {
-    static constexpr std::array<std::pair<TriangulationMode, std::string_view>, 2> table{{
-        {TriangulationMode::Centroid, "centroid"}, {TriangulationMode::NinePoints, "nine_points"}}};
-    static constexpr const char* list = "centroid or nine_points";
+    static constexpr std::array<std::pair<TriangulationMode, std::string_view>, 1> table{{
+        {TriangulationMode::Centroid, "centroid"}}};
+    static constexpr const char* list = "centroid (nine_points was removed: docs/accuracy.md)";
     static constexpr const char* type = "TriangulationMode";
 };
 

@@ -120,27 +120,6 @@ TEST(ShapeModel, SphereAndTiltedDiscAreWholeAndLocatedByTheirModels) {
     EXPECT_LT(o.errorMm("disc"), 0.5);
 }
 
-// The nine-point option (thesis 3.4.2) averages nine triangulations of a
-// target without a round model; its point carries both cameras' frames, so
-// the two views' sizes agree and an isolated sphere is whole (before, its
-// right-camera point was zero and every such target looked occluded). It is
-// less accurate than the centroids: docs/accuracy.md.
-TEST(ShapeModel, NinePointTargetsAreWholeAndNearTheCentroidTriangulation) {
-    render::Scene scene = emptyLab();
-    scene.targets = {target("ball", render::Shape::Sphere, {60, -40, 700}, 30)};
-    AvatarConfig nine = config(TargetShape::None);
-    nine.analysis.triangulation = TriangulationMode::NinePoints;
-    const Outcome a = run(scene, nine), b = run(scene, config(TargetShape::None));
-    const auto va = a.of("ball"), vb = b.of("ball");
-    ASSERT_TRUE(va && vb);
-    EXPECT_TRUE(va->flags & kTargetWhole) << flagsOf(va);
-    EXPECT_EQ(va->model, ShapeModel::None);
-    EXPECT_GT(va->rayResidualPx, 0.0);
-    // 6.5 mm apart here: the nine points are the silhouette's extremes, on
-    // the limb, which each camera sees at other points of the sphere.
-    EXPECT_LT(cv::norm(*va->positionVisionMm - *vb->positionVisionMm), 10.0);
-}
-
 // The image of a flat circle's centre is the pole of its plane's vanishing
 // line, not the centre of its elliptical image: for this disc of 35 mm at
 // 0.6 m, tilted 34 degrees, they are 2 px apart.

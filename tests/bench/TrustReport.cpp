@@ -11,8 +11,7 @@
 //    whole whose truth is not whole in both views (strictly: anything of it
 //    hidden or cut) is a false whole;
 // 3. recall, 3-D error by shape and range, signed depth error, the models
-//    used, nine-point against centroid triangulation for targets without a
-//    round model, and the predicted position sigma against the error.
+//    used, and the predicted position sigma against the error.
 //
 //   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose]
 //   trust_report --covariance REPEATS [--seed S]   (predicted sigma against the spread)
@@ -157,6 +156,7 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
     struct Box {
         double lo[2], hi[2], median[2];
     };
+    const double kMargin = 0.05;  // log: the ratio ranges 5 % beyond the quantiles
     std::map<std::string, Box> boxes;
     for (const auto& colour : kColours) {
         auto& a = rg[colour.name];
@@ -165,8 +165,8 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
         Box box{};
         const std::vector<double>* v[2] = {&a, &b};
         for (int d = 0; d < 2; ++d) {
-            box.lo[d] = quantile(*v[d], 0.002) - 0.05;
-            box.hi[d] = quantile(*v[d], 0.998) + 0.05;
+            box.lo[d] = quantile(*v[d], 0.002) - kMargin;
+            box.hi[d] = quantile(*v[d], 0.998) + kMargin;
             box.median[d] = quantile(*v[d], 0.5);
         }
         boxes[colour.name] = box;
@@ -213,6 +213,11 @@ int nearestTruth(const render::GroundTruth& truth, Side side, const cv::Point2d&
     return best;
 }
 
+/// A whole target further than this from its true centre is false too (a
+/// duck's centroid is up to ~10 mm from its centre; a round target's model
+/// within a few mm).
+constexpr double kFarOffMm = 15.0;
+
 struct Hit {
     TargetRecord record;
     ShapeModel model{ShapeModel::None};
@@ -225,35 +230,34 @@ struct Tally {
     int mixedWhole{0}, mixedFound{0};  ///< of a colour between two filters' (not in the recall)
     int stereo{0}, whole{0};
     int falseWhole{0}, falseWholeHidden1pc{0}, falseWholeFar{0};
+    int wholeFarOff{0};  ///< whole in truth too, but more than kFarOffMm from its centre
     int wholeSpurious{0}, wholeWrongMatch{0}, wholeWrongType{0}, duplicates{0};
     std::map<std::string, int> falseReasons;
     std::vector<Hit> hits;        ///< truth whole, reported whole with its type
-    std::vector<Hit> hitsNine;    ///< the same with the nine-point option
     std::vector<std::string> misses, falses;
 };
 
 void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, const VisionTargets& result,
-                const VisionTargets& nine, const StereoSystemConfig& stereo, Tally& tally) {
+                const StereoSystemConfig& stereo, Tally& tally) {
     std::vector<TargetRecord> records;
     for (const auto& t : truth.targets) records.push_back(truthRecord(truth, t));
     markCrowded(records, scene, stereo);
     std::vector<bool> found(records.size(), false), foundAny(records.size(), false);
-    const auto judgeOne = [&](const VisionTarget& v, bool count, std::vector<Hit>* hits) {
+    const auto judgeOne = [&](const VisionTarget& v, std::vector<Hit>* hits) {
         if (!(v.flags & kTargetStereo) || !v.positionVisionMm) return;
-        if (count) ++tally.stereo;
+        ++tally.stereo;
         const bool whole = v.flags & kTargetWhole;
-        if (count && whole) ++tally.whole;
+        if (whole) ++tally.whole;
         const int l = nearestTruth(truth, Side::Left, *v.centroidLeftPx);
         const int r = nearestTruth(truth, Side::Right, *v.centroidRightPx);
         const auto fail = [&](const std::string& reason, const std::string& what) {
-            if (!count) return;
             ++tally.falseWhole;
             ++tally.falseReasons[reason];
             tally.falses.push_back(truth.sceneName + "/" + what + " (" + reason + ", " + targetFlagsText(v.flags) + ")");
         };
         if (l < 0 || r < 0) {
             if (whole) {
-                if (count) ++tally.wholeSpurious;
+                ++tally.wholeSpurious;
                 // A box made nearly of a target's colour (a look-alike)?
                 bool lookAlike = false;
                 for (const auto& o : scene.occluders) {
@@ -267,7 +271,7 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         }
         if (l != r) {
             if (whole) {
-                if (count) ++tally.wholeWrongMatch;
+                ++tally.wholeWrongMatch;
                 fail("wrong match", v.type);
             }
             return;
@@ -278,15 +282,15 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         rec.detected = true;
         rec.measuredMm = *v.positionVisionMm;
         rec.errorMm = cv::norm(rec.measuredMm - rec.truthMm);
-        if (count) foundAny[i] = true;
+        foundAny[i] = true;
         if (!whole) return;
         const bool truthWhole = t.left.visibility == render::TargetVisibility::Full &&
                                 t.right.visibility == render::TargetVisibility::Full;
         if (!truthWhole) {
             const double hidden = std::max(t.left.hiddenFraction(), t.right.hiddenFraction());
             const bool cut = t.left.cut || t.right.cut;
-            if (count && (hidden > 0.01 || cut)) ++tally.falseWholeHidden1pc;
-            if (count && rec.errorMm > 5.0) ++tally.falseWholeFar;
+            if (hidden > 0.01 || cut) ++tally.falseWholeHidden1pc;
+            if (rec.errorMm > 5.0) ++tally.falseWholeFar;
             char what[160];
             std::snprintf(what, sizeof what, "%s hidden %.1f%%/%.1f%%%s, %.1f mm off", t.name.c_str(),
                           100.0 * t.left.hiddenFraction(), 100.0 * t.right.hiddenFraction(), cut ? " cut" : "",
@@ -295,15 +299,23 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
             return;
         }
         if (v.type != t.type) {
-            if (count) ++tally.wholeWrongType;
+            ++tally.wholeWrongType;
             fail("wrong type", t.name + " as " + v.type);
             return;
         }
-        if (count && found[i]) {
+        if (found[i]) {
             ++tally.duplicates;
             return;
         }
-        if (count) found[i] = true;
+        if (rec.errorMm > kFarOffMm) {
+            char what[160];
+            std::snprintf(what, sizeof what, "%s %s %.1f mm off", t.name.c_str(),
+                          std::string(render::toString(t.shape)).c_str(), rec.errorMm);
+            ++tally.wholeFarOff;
+            fail("far off", what);
+            return;  // not recalled either
+        }
+        found[i] = true;
         if (hits && !records[i].crowded) {
             Hit h;
             h.record = rec;
@@ -316,8 +328,7 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
             hits->push_back(h);
         }
     };
-    for (const VisionTarget& v : result.targets) judgeOne(v, true, &tally.hits);
-    for (const VisionTarget& v : nine.targets) judgeOne(v, false, &tally.hitsNine);
+    for (const VisionTarget& v : result.targets) judgeOne(v, &tally.hits);
     for (std::size_t i = 0; i < records.size(); ++i) {
         if (!records[i].fullyVisible) continue;
         if (records[i].crowded) {
@@ -470,9 +481,7 @@ int main(int argc, char** argv) {
                     o.trainScenes, static_cast<unsigned long long>(o.trainSeed));
         std::printf("| type   | R/G | B/G | pixels |\n|--------|-----|-----|--------|\n");
         const AvatarConfig config = trainFilters(o, scorpion.stereo, sensor);
-        AvatarConfig nineConfig = config;
-        nineConfig.analysis.triangulation = TriangulationMode::NinePoints;
-        AnalyzeStereoImagePair analysis(config), nine(nineConfig);
+        AnalyzeStereoImagePair analysis(config);
         Tally tally;
         const auto set = scenes(o.scenes, o.seed, scorpion.stereo, sensor);
         int truthTargets = 0;
@@ -480,9 +489,8 @@ int main(int argc, char** argv) {
             const auto rr = renderScene(set[k], scorpion.stereo, sensor, renderSeed(o.seed, k));
             truthTargets += static_cast<int>(rr.truth.targets.size());
             const VisionTargets result = analysis.analyze(rr.pair, k);
-            const VisionTargets resultNine = nine.analyze(rr.pair, k);
             const std::size_t falsesBefore = tally.falses.size(), missesBefore = tally.misses.size();
-            judgeScene(set[k], rr.truth, result, resultNine, scorpion.stereo, tally);
+            judgeScene(set[k], rr.truth, result, scorpion.stereo, tally);
             if (o.verbose && (tally.falses.size() > falsesBefore || tally.misses.size() > missesBefore)) {
                 std::fprintf(stderr, "scene %s\n", rr.truth.sceneName.c_str());
                 for (const auto& t : rr.truth.targets)
@@ -503,12 +511,12 @@ int main(int argc, char** argv) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::printf("\n## Seed %llu: %d scenes, %d truth targets, 0.5-2.5 m (%.0f s)\n\n",
                     static_cast<unsigned long long>(o.seed), o.scenes, truthTargets, seconds);
-        std::printf("| whole in truth | crowded | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | false whole | of them >1%% hidden or cut | >5 mm off | spurious | wrong match | wrong type | duplicates |\n");
-        std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-        std::printf("| %d | %d | %d (%d) | %d | %s | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d |\n", tally.truthWhole,
+        std::printf("| whole in truth | crowded | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | false whole | of them >1%% hidden or cut | >5 mm off | whole in truth, >15 mm off | spurious | wrong match | wrong type | duplicates |\n");
+        std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        std::printf("| %d | %d | %d (%d) | %d | %s | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d |\n", tally.truthWhole,
                     tally.crowdedWhole, tally.mixedWhole, tally.mixedFound, tally.recalled,
                     fmt(tally.truthWhole ? 100.0 * tally.recalled / tally.truthWhole : NAN).c_str(), tally.reportedAny,
-                    tally.stereo, tally.whole, tally.falseWhole, tally.falseWholeHidden1pc, tally.falseWholeFar,
+                    tally.stereo, tally.whole, tally.falseWhole, tally.falseWholeHidden1pc, tally.falseWholeFar, tally.wholeFarOff,
                     tally.wholeSpurious, tally.wholeWrongMatch, tally.wholeWrongType, tally.duplicates);
         std::printf("\n3-D error of whole targets (mm; depth = signed median z error; err/sigma = median of error over the predicted sigma):\n\n");
         std::printf("| %-28s | %4s | %6s | %6s | %6s | %7s | %7s |\n", "targets", "n", "median", "p95", "max", "depth",
@@ -519,7 +527,6 @@ int main(int argc, char** argv) {
         row("spheres", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Sphere; }));
         row("discs", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Disc; }));
         row("ducks (composite, centroid)", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Duck; }));
-        row("ducks, nine-point option", pick(tally.hitsNine, [](const Hit& h) { return h.record.shape == render::Shape::Duck; }));
         for (double lo = 500.0; lo < 2500.0; lo += 500.0)
             row("round, " + fmt(lo / 1000.0, 1) + "-" + fmt((lo + 500.0) / 1000.0, 1) + " m", inRange(tally.hits, lo, lo + 500.0, true));
         row("round, 0.5-1.5 m", inRange(tally.hits, 500.0, 1500.0, true));

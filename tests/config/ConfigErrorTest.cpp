@@ -246,6 +246,10 @@ const std::vector<BadDocument> kBadDocuments = {
      "t.xml:19: /avatar/targets/target[1]/shape: expected none, sphere, disc or composite, got 'cube'"},
     {"unknown demosaic algorithm", {{"  </lighting>\n", "  </lighting>\n  <analysis><demosaic>ahd</demosaic></analysis>\n"}},
      "t.xml:53: /avatar/analysis/demosaic: expected bilinear or edge_aware, got 'ahd'"},
+    {"removed nine-point triangulation",
+     {{"  </lighting>\n", "  </lighting>\n  <analysis><triangulation>nine_points</triangulation></analysis>\n"}},
+     "t.xml:53: /avatar/analysis/triangulation: expected centroid (nine_points was removed: docs/accuracy.md), "
+     "got 'nine_points'"},
     {"stage twice", {{"  </lighting>\n", "  </lighting>\n  <analysis><stages>demosaic match demosaic</stages></analysis>\n"}},
      "t.xml:53: /avatar/analysis/stages: stage 'demosaic' appears twice"},
     {"bad stage name", {{"  </lighting>\n", "  </lighting>\n  <analysis><stages>Demosaic</stages></analysis>\n"}},

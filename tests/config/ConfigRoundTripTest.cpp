@@ -77,7 +77,7 @@ TEST(ConfigRoundTrip, WrittenFormat) {
               std::string::npos);
     EXPECT_NE(xml.find("<demosaic>edge_aware</demosaic>"), std::string::npos);
     EXPECT_NE(xml.find("<centroid>pixel</centroid>"), std::string::npos);
-    EXPECT_NE(xml.find("<triangulation>nine_points</triangulation>"), std::string::npos);
+    EXPECT_NE(xml.find("<triangulation>centroid</triangulation>"), std::string::npos);
     EXPECT_EQ(xml.back(), '\n');
 }
 
@@ -263,7 +263,6 @@ std::vector<Mutation> mutations() {
     add("analysis.stages renamed", [](AvatarConfig& c) { c.analysis.stages[5] = "visibility"; });
     add("analysis.demosaic", [](AvatarConfig& c) { c.analysis.demosaic = DemosaicAlgorithm::Bilinear; });
     add("analysis.centroid", [](AvatarConfig& c) { c.analysis.centroid = CentroidMode::IntensityWeighted; });
-    add("analysis.triangulation", [](AvatarConfig& c) { c.analysis.triangulation = TriangulationMode::Centroid; });
     add("analysis.visibility.minContrast", [](AvatarConfig& c) { c.analysis.visibility.minContrast = 0; });
     add("analysis.visibility.maxSaturatedFraction",
         [](AvatarConfig& c) { c.analysis.visibility.maxSaturatedFraction = 1; });

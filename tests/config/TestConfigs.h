@@ -89,7 +89,7 @@ inline AvatarConfig unusualConfig() {
     an.stages = {"demosaic", "color_filter", "locate_features", "match", "triangulate", "count_2"};
     an.demosaic = DemosaicAlgorithm::EdgeAware;
     an.centroid = CentroidMode::Pixel;
-    an.triangulation = TriangulationMode::NinePoints;
+    an.triangulation = TriangulationMode::Centroid;
     an.visibility = {0.05, 0.125, 0.4375};
     return c;
 }

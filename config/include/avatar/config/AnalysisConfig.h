@@ -15,10 +15,11 @@ enum class CentroidMode {
     Coverage            ///< the area the sub-pixel outline encloses: each edge where the colour is half-way
 };
 
-/// How a matched feature pair becomes a 3-D point (thesis 3.4.2).
+/// How a matched feature pair without a fitting shape model becomes a 3-D
+/// point (thesis 3.4.2). The thesis's nine-point average is gone: on ducks it
+/// was twice as far from the truth as the centroids (docs/accuracy.md).
 enum class TriangulationMode {
-    Centroid,   ///< triangulate the centroids
-    NinePoints  ///< triangulate the nine interest points and average (near-parallel cameras only)
+    Centroid  ///< triangulate the centroids
 };
 
 enum class DemosaicAlgorithm { Bilinear, EdgeAware };
