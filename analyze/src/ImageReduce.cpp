@@ -39,16 +39,25 @@ std::int64_t countAtLeast(const cv::Mat& image, double threshold) {
     if (threshold > static_cast<double>(std::numeric_limits<S>::max())) return 0;
     const auto t = static_cast<S>(std::ceil(threshold));
     const int channels = image.channels();
+    const int n = image.cols * channels;
     std::int64_t count = 0;
+    cv::Mat below;
     for (int y = 0; y < image.rows; ++y) {
         const S* row = image.ptr<S>(y);
-        std::int32_t rowCount = 0;  // cols <= 2^31: no overflow
-        for (int x = 0; x < image.cols; ++x, row += channels) {
-            bool any = false;
-            for (int c = 0; c < channels; ++c) any |= row[c] >= t;
-            rowCount += any;
+        // Saturation is rare: a plain pass over the samples (a loop GCC
+        // vectorises) finds the rows without any; the others are counted by
+        // cv::inRange, which is vectorised over interleaved channels (a
+        // per-pixel loop over them is not: it cost 3 ms per 1280x960 pair).
+        std::int32_t samples = 0;  // n <= 2^31: no overflow
+        for (int i = 0; i < n; ++i) samples += row[i] >= t;
+        if (samples == 0) continue;
+        if (channels == 1) {
+            count += samples;
+            continue;
         }
-        count += rowCount;
+        // A pixel has no saturated channel when all of them lie in [0, t).
+        cv::inRange(image.row(y), cv::Scalar::all(0), cv::Scalar::all(static_cast<double>(t) - 1.0), below);
+        count += image.cols - cv::countNonZero(below);
     }
     return count;
 }

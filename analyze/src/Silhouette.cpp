@@ -151,6 +151,11 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
             binaryArea += 1.0;
             sumX += x;
             sumY += y;
+            // Most pixels are inside: no edge to look at.
+            if (x > 0 && y > 0 && x + 1 < roi.width && y + 1 < roi.height &&
+                lab.at<std::uint8_t>(y, x - 1) == kFeature && lab.at<std::uint8_t>(y, x + 1) == kFeature &&
+                lab.at<std::uint8_t>(y - 1, x) == kFeature && lab.at<std::uint8_t>(y + 1, x) == kFeature)
+                continue;
             for (const Direction& d : kDirections) {
                 const int qx = x + d.dx, qy = y + d.dy;
                 const cv::Point2d mid(roi.x + x + 0.5 * d.dx, roi.y + y + 0.5 * d.dy);
