@@ -34,21 +34,6 @@ cv::Point2d pointOn(const cv::RotatedRect& e, double t, double inwardPx) {
     return {e.center.x + ct * u - st * v, e.center.y + st * u + ct * v};
 }
 
-/// The conic (normalised coordinates) of an ellipse given in ideal pixels
-/// (normalised x @p f) relative to @p offset (normalised).
-cv::Matx33d conicOf(const cv::RotatedRect& e, double f, const cv::Point2d& offset) {
-    const double a = 0.5 * e.size.width / f, b = 0.5 * e.size.height / f;
-    const double theta = e.angle * CV_PI / 180.0;
-    const double cx = e.center.x / f + offset.x, cy = e.center.y / f + offset.y;
-    const double ct = std::cos(theta), st = std::sin(theta);
-    const cv::Matx22d R(ct, -st, st, ct);
-    const cv::Matx22d D(1.0 / (a * a), 0, 0, 1.0 / (b * b));
-    const cv::Matx22d A = R * D * R.t();
-    const cv::Vec2d c(cx, cy);
-    const cv::Vec2d Ac = A * c;
-    const double k = c.dot(Ac) - 1.0;
-    return {A(0, 0), A(0, 1), -Ac[0], A(1, 0), A(1, 1), -Ac[1], -Ac[0], -Ac[1], k};
-}
 
 /// Eigenvalues (descending) and eigenvectors (rows) of a symmetric 3x3 matrix.
 void eigen3(const cv::Matx33d& m, cv::Vec3d& values, cv::Matx33d& vectors) {
@@ -61,6 +46,20 @@ void eigen3(const cv::Matx33d& m, cv::Vec3d& values, cv::Matx33d& vectors) {
 }
 
 }  // namespace
+
+cv::Matx33d ellipseConic(const cv::RotatedRect& e, double f, const cv::Point2d& offset) {
+    const double a = 0.5 * e.size.width / f, b = 0.5 * e.size.height / f;
+    const double theta = e.angle * CV_PI / 180.0;
+    const double cx = e.center.x / f + offset.x, cy = e.center.y / f + offset.y;
+    const double ct = std::cos(theta), st = std::sin(theta);
+    const cv::Matx22d R(ct, -st, st, ct);
+    const cv::Matx22d D(1.0 / (a * a), 0, 0, 1.0 / (b * b));
+    const cv::Matx22d A = R * D * R.t();
+    const cv::Vec2d c(cx, cy);
+    const cv::Vec2d Ac = A * c;
+    const double k = c.dot(Ac) - 1.0;
+    return {A(0, 0), A(0, 1), -Ac[0], A(1, 0), A(1, 1), -Ac[1], -Ac[0], -Ac[1], k};
+}
 
 EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlinePoint>& outline,
                       double minThresholdPx) {
@@ -123,7 +122,7 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
     fit.ideal = cv::RotatedRect(cv::Point2f(e.center.x + static_cast<float>(mean.x * f),
                                             e.center.y + static_cast<float>(mean.y * f)),
                                 e.size, e.angle);
-    fit.conic = conicOf(e, f, mean);
+    fit.conic = ellipseConic(e, f, mean);
     return fit;
 }
 

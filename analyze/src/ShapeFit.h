@@ -57,6 +57,11 @@ struct RoundCompleteness {
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };
 
+/// The conic (undistorted normalised coordinates, x^T Q x = 0) of ellipse
+/// @p e given in ideal pixels (normalised x @p f) relative to @p offset
+/// (normalised).
+cv::Matx33d ellipseConic(const cv::RotatedRect& e, double f, const cv::Point2d& offset);
+
 /// Fits @p outline's free points (needs at least 10). @p minThresholdPx is
 /// the smallest inlier limit (the fit's accuracy).
 EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlinePoint>& outline,

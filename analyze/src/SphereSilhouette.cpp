@@ -1,5 +1,8 @@
-#include <avatar/common/CameraModel.h>
 #include <avatar/analyze/SphereSilhouette.h>
+
+#include "ShapeFit.h"
+
+#include <avatar/common/CameraModel.h>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -61,34 +64,10 @@ std::optional<cv::Point2d> sphereCentreDirection(const CameraIntrinsics& camera,
     const cv::RotatedRect e = cv::fitEllipseDirect(ideal);
     if (!(e.size.width > 0 && e.size.height > 0)) return std::nullopt;
 
-    // Conic of the ellipse in normalised coordinates: x^T Q x = 0, x = (u, v, 1).
-    const double a = 0.5 * e.size.width / f, b = 0.5 * e.size.height / f;
-    const double theta = e.angle * CV_PI / 180.0;
-    const double cx = e.center.x / f + mean.x, cy = e.center.y / f + mean.y;
-    const double ct = std::cos(theta), st = std::sin(theta);
-    // Ellipse: ((R^T (x - c))_1 / a)^2 + ((R^T (x - c))_2 / b)^2 = 1
-    const cv::Matx22d R(ct, -st, st, ct);
-    const cv::Matx22d D(1.0 / (a * a), 0, 0, 1.0 / (b * b));
-    const cv::Matx22d A = R * D * R.t();
-    const cv::Vec2d c(cx, cy);
-    const cv::Vec2d Ac = A * c;
-    const double k = c.dot(Ac) - 1.0;
-    const cv::Matx33d Q(A(0, 0), A(0, 1), -Ac[0],
-                        A(1, 0), A(1, 1), -Ac[1],
-                        -Ac[0], -Ac[1], k);
-    cv::Mat values, vectors;
-    cv::eigen(cv::Mat(Q), values, vectors);  // descending eigenvalues, rows are vectors
-    // An ellipse's cone has signature (+, +, -) up to sign: the odd one out is
-    // the eigenvalue whose sign differs from the other two.
-    const double l0 = values.at<double>(0), l1 = values.at<double>(1), l2 = values.at<double>(2);
-    int odd = -1;
-    if (l0 > 0 && l1 > 0 && l2 < 0) odd = 2;
-    else if (l0 > 0 && l1 < 0 && l2 < 0) odd = 0;
-    if (odd < 0) return std::nullopt;
-    const double vx = vectors.at<double>(odd, 0), vy = vectors.at<double>(odd, 1),
-                 vz = vectors.at<double>(odd, 2);
-    if (std::abs(vz) < 1e-12) return std::nullopt;
-    return cv::Point2d(vx / vz, vy / vz);
+    // The cone's axis from the conic of the ellipse in normalised coordinates.
+    const auto cone = detail::sphereCone(detail::ellipseConic(e, f, mean));
+    if (!cone) return std::nullopt;
+    return cone->axis;
 }
 
 }  // namespace avatar
