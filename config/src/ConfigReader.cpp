@@ -589,6 +589,41 @@ AnalysisConfig readAnalysis(Reader& r, const XMLElement* el, const std::string& 
     return a;
 }
 
+ServoConfig readServo(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path,
+                    {"sampleType", "armType", "mode", "filter", "maxMoveMm", "finalDistanceMm", "toolOffsetMm",
+                     "armToleranceMm", "armDriftMm", "armDriftPerMm", "maxTargetJumpMm", "trackingRadiusMm",
+                     "visionTimeoutMs", "moveTimeoutMs", "lostTimeoutMs", "maxIterations", "refineRegistration",
+                     "probeAngleDeg", "registrationStdDeg", "kalman"});
+    ServoConfig c;
+    s.getOptional("sampleType", c.sampleType, readString);
+    s.getOptional("armType", c.armType, readString);
+    s.getOptional("mode", c.mode, readEnum<ServoMode>);
+    s.getOptional("filter", c.filter, readEnum<ServoFilter>);
+    s.getOptional("maxMoveMm", c.maxMoveMm, readDouble);
+    s.getOptional("finalDistanceMm", c.finalDistanceMm, readDouble);
+    s.getOptional("toolOffsetMm", c.toolOffsetMm, readVector3);
+    s.getOptional("armToleranceMm", c.armToleranceMm, readDouble);
+    s.getOptional("armDriftMm", c.armDriftMm, readDouble);
+    s.getOptional("armDriftPerMm", c.armDriftPerMm, readDouble);
+    s.getOptional("maxTargetJumpMm", c.maxTargetJumpMm, readDouble);
+    s.getOptional("trackingRadiusMm", c.trackingRadiusMm, readDouble);
+    s.getOptional("visionTimeoutMs", c.visionTimeoutMs, readInt);
+    s.getOptional("moveTimeoutMs", c.moveTimeoutMs, readInt);
+    s.getOptional("lostTimeoutMs", c.lostTimeoutMs, readInt);
+    s.getOptional("maxIterations", c.maxIterations, readInt);
+    s.getOptional("refineRegistration", c.refineRegistration, readBool);
+    s.getOptional("probeAngleDeg", c.probeAngleDeg, readDouble);
+    s.getOptional("registrationStdDeg", c.registrationStdDeg, readDouble);
+    if (const XMLElement* k = s.find("kalman")) {
+        const Section ks(r, k, s.childPath("kalman"), {"sampleNoiseMm", "armNoisePerMm", "defaultSigmaMm"});
+        ks.getOptional("sampleNoiseMm", c.kalmanSampleNoiseMm, readDouble);
+        ks.getOptional("armNoisePerMm", c.kalmanArmNoisePerMm, readDouble);
+        ks.getOptional("defaultSigmaMm", c.kalmanDefaultSigmaMm, readDouble);
+    }
+    return c;
+}
+
 }  // namespace
 
 ParsedDocument parseDocument(const std::string& xml, const std::string& source) {
@@ -622,7 +657,7 @@ ParsedDocument parseDocument(const std::string& xml, const std::string& source) 
     }
     r.record("/avatar/@version", root->GetLineNum());
 
-    const Section s(r, root, "/avatar", {"camera", "targets", "match", "stereo", "lighting", "analysis"},
+    const Section s(r, root, "/avatar", {"camera", "targets", "match", "stereo", "lighting", "analysis", "servo"},
                     {"version"});
     AvatarConfig& c = parsed.config;
     c.camera = s.get("camera", readCamera);
@@ -631,6 +666,9 @@ ParsedDocument parseDocument(const std::string& xml, const std::string& source) 
     c.stereo = s.get("stereo", readStereo);
     s.getOptional("lighting", c.lighting, readLighting);
     s.getOptional("analysis", c.analysis, readAnalysis);
+    if (s.has("servo")) {
+        c.servo = s.get("servo", readServo);
+    }
     return parsed;
 }
 

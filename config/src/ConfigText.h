@@ -7,6 +7,7 @@
 #include <avatar/common/internal/Text.h>
 #include <avatar/config/AnalysisConfig.h>
 #include <avatar/config/MatchConfig.h>
+#include <avatar/config/ServoConfig.h>
 #include <avatar/config/TargetConfig.h>
 
 #include <array>
@@ -85,6 +86,22 @@ struct EnumWords<TriangulationMode> {
         {TriangulationMode::Centroid, "centroid"}}};
     static constexpr const char* list = "centroid (nine_points was removed: docs/accuracy.md)";
     static constexpr const char* type = "TriangulationMode";
+};
+
+template <>
+struct EnumWords<ServoMode> {
+    static constexpr std::array<std::pair<ServoMode, std::string_view>, 3> table{{
+        {ServoMode::Servo, "servo"}, {ServoMode::DeadReckoning, "dead_reckoning"}, {ServoMode::Hybrid, "hybrid"}}};
+    static constexpr const char* list = "servo, dead_reckoning or hybrid";
+    static constexpr const char* type = "ServoMode";
+};
+
+template <>
+struct EnumWords<ServoFilter> {
+    static constexpr std::array<std::pair<ServoFilter, std::string_view>, 2> table{{
+        {ServoFilter::None, "none"}, {ServoFilter::Kalman, "kalman"}}};
+    static constexpr const char* list = "none or kalman";
+    static constexpr const char* type = "ServoFilter";
 };
 
 /// The word for @p value; std::nullopt for a value outside the enum.

@@ -390,6 +390,58 @@ void validateAnalysis(const Checker& k, const AnalysisConfig& a) {
     k.between(a.visibility.maxHaze, 0.0, 1.0, v + "/maxHaze");
 }
 
+void validateServo(const Checker& k, const ServoConfig& c, const TargetConfig* targets) {
+    const std::string p = "/avatar/servo";
+    k.text(c.sampleType, p + "/sampleType");
+    k.text(c.armType, p + "/armType");
+    const auto known = [&](const std::string& type, const std::string& path) {
+        for (const TargetType& t : targets->targets) {
+            if (t.name == type) {
+                return;
+            }
+        }
+        std::string names;
+        for (const TargetType& t : targets->targets) {
+            names += (names.empty() ? "" : ", ") + quote(t.name);
+        }
+        k.fail(path, "names no target type of <targets>: " + quote(type) + " (types: " + names + ")");
+    };
+    if (targets != nullptr) {
+        known(c.sampleType, p + "/sampleType");
+        known(c.armType, p + "/armType");
+    }
+    if (c.sampleType == c.armType) {
+        k.fail(p + "/armType", "is the same type as <sampleType> " + quote(c.sampleType) +
+                                   ": the arm and the sample must be told apart");
+    }
+    k.enumerator(c.mode, p + "/mode");
+    k.enumerator(c.filter, p + "/filter");
+    k.positive(c.maxMoveMm, p + "/maxMoveMm");
+    k.positive(c.finalDistanceMm, p + "/finalDistanceMm");
+    if (c.finalDistanceMm > c.maxMoveMm) {
+        k.fail(p + "/finalDistanceMm", "must not exceed <maxMoveMm> " + formatDouble(c.maxMoveMm) + ", got " +
+                                           formatDouble(c.finalDistanceMm) + ": the last move would be longer than any other");
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+        k.between(c.toolOffsetMm[i], -5000.0, 5000.0, p + "/toolOffsetMm", Checker::component(i));
+    }
+    k.positive(c.armToleranceMm, p + "/armToleranceMm");
+    k.between(c.armDriftMm, 0.0, kInf, p + "/armDriftMm");
+    k.between(c.armDriftPerMm, 0.0, 1.0, p + "/armDriftPerMm");
+    k.positive(c.maxTargetJumpMm, p + "/maxTargetJumpMm");
+    k.positive(c.trackingRadiusMm, p + "/trackingRadiusMm");
+    k.intBetween(c.visionTimeoutMs, 1, 600000, p + "/visionTimeoutMs");
+    k.intBetween(c.moveTimeoutMs, 1, 600000, p + "/moveTimeoutMs");
+    k.intBetween(c.lostTimeoutMs, 1, 3600000, p + "/lostTimeoutMs");
+    k.intBetween(c.maxIterations, 1, 10000, p + "/maxIterations");
+    k.between(c.probeAngleDeg, 0.0, 60.0, p + "/probeAngleDeg");
+    k.positive(c.registrationStdDeg, p + "/registrationStdDeg");
+    k.between(c.registrationStdDeg, 0.0, 45.0, p + "/registrationStdDeg");
+    k.between(c.kalmanSampleNoiseMm, 0.0, kInf, p + "/kalman/sampleNoiseMm");
+    k.between(c.kalmanArmNoisePerMm, 0.0, 1.0, p + "/kalman/armNoisePerMm");
+    k.positive(c.kalmanDefaultSigmaMm, p + "/kalman/defaultSigmaMm");
+}
+
 }  // namespace
 
 int ErrorSite::lineOf(const std::string& path) const {
@@ -421,6 +473,9 @@ void validate(const AvatarConfig& config, const ErrorSite& site) {
     validatePrincipalPoint(k, config.stereo.right, config.camera, std::string(kStereoPath) + "/right");
     validateLighting(k, config.lighting);
     validateAnalysis(k, config.analysis);
+    if (config.servo) {
+        validateServo(k, *config.servo, &config.targets);
+    }
 }
 
 }  // namespace avatar::config_internal
@@ -454,6 +509,10 @@ void validateTargetType(const TargetType& type) {
     checkInMemory([&](const config_internal::Checker& k) {
         config_internal::validateTarget(k, type, "/avatar/targets/target[@name='" + type.name + "']");
     });
+}
+
+void validateServoConfig(const ServoConfig& servo) {
+    checkInMemory([&](const config_internal::Checker& k) { config_internal::validateServo(k, servo, nullptr); });
 }
 
 void validateAnalysisConfig(const AnalysisConfig& analysis) {

@@ -216,6 +216,35 @@ void writeAnalysis(Writer& w, const AnalysisConfig& a) {
     w.close();
 }
 
+void writeServo(Writer& w, const ServoConfig& c) {
+    w.open("servo");
+    w.text("sampleType", c.sampleType);
+    w.text("armType", c.armType);
+    w.text("mode", enumWord(c.mode).value_or("?"));
+    w.text("filter", enumWord(c.filter).value_or("?"));
+    w.number("maxMoveMm", c.maxMoveMm);
+    w.number("finalDistanceMm", c.finalDistanceMm);
+    w.vector("toolOffsetMm", c.toolOffsetMm);
+    w.number("armToleranceMm", c.armToleranceMm);
+    w.number("armDriftMm", c.armDriftMm);
+    w.number("armDriftPerMm", c.armDriftPerMm);
+    w.number("maxTargetJumpMm", c.maxTargetJumpMm);
+    w.number("trackingRadiusMm", c.trackingRadiusMm);
+    w.integer("visionTimeoutMs", c.visionTimeoutMs);
+    w.integer("moveTimeoutMs", c.moveTimeoutMs);
+    w.integer("lostTimeoutMs", c.lostTimeoutMs);
+    w.integer("maxIterations", c.maxIterations);
+    w.boolean("refineRegistration", c.refineRegistration);
+    w.number("probeAngleDeg", c.probeAngleDeg);
+    w.number("registrationStdDeg", c.registrationStdDeg);
+    w.open("kalman");
+    w.number("sampleNoiseMm", c.kalmanSampleNoiseMm);
+    w.number("armNoisePerMm", c.kalmanArmNoisePerMm);
+    w.number("defaultSigmaMm", c.kalmanDefaultSigmaMm);
+    w.close();
+    w.close();
+}
+
 }  // namespace
 
 std::string formatDocument(const AvatarConfig& config) {
@@ -234,6 +263,9 @@ std::string formatDocument(const AvatarConfig& config) {
     writeStereo(w, config.stereo);
     writeLighting(w, config.lighting);
     writeAnalysis(w, config.analysis);
+    if (config.servo) {
+        writeServo(w, *config.servo);
+    }
     w.close();
     return w.str() + "\n";
 }

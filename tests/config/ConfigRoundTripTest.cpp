@@ -267,6 +267,45 @@ std::vector<Mutation> mutations() {
     add("analysis.visibility.maxSaturatedFraction",
         [](AvatarConfig& c) { c.analysis.visibility.maxSaturatedFraction = 1; });
     add("analysis.visibility.maxHaze", [](AvatarConfig& c) { c.analysis.visibility.maxHaze = 0.9; });
+
+    // The servo tuning: every field, starting from a section of defaults
+    // whose types name the configuration's targets.
+    const auto servo = [](AvatarConfig& c) -> ServoConfig& {
+        if (!c.servo) {
+            c.servo = ServoConfig{};
+            c.servo->sampleType = "duck_1";
+            c.servo->armType = "arm-Marker";
+        }
+        return *c.servo;
+    };
+    add("servo", [servo](AvatarConfig& c) { servo(c); });
+    add("servo.sampleType swapped with armType", [servo](AvatarConfig& c) {
+        servo(c).sampleType = "arm-Marker";
+        servo(c).armType = "duck_1";
+    });
+    add("servo.mode", [servo](AvatarConfig& c) { servo(c).mode = ServoMode::Hybrid; });
+    add("servo.mode dead_reckoning", [servo](AvatarConfig& c) { servo(c).mode = ServoMode::DeadReckoning; });
+    add("servo.filter", [servo](AvatarConfig& c) { servo(c).filter = ServoFilter::Kalman; });
+    add("servo.maxMoveMm", [servo](AvatarConfig& c) { servo(c).maxMoveMm = 1.0 / 3.0 + 50; });
+    add("servo.finalDistanceMm", [servo](AvatarConfig& c) { servo(c).finalDistanceMm = 7.25; });
+    for (std::size_t i = 0; i < 3; ++i)
+        add("servo.toolOffsetMm[" + std::to_string(i) + "]",
+            [servo, i](AvatarConfig& c) { servo(c).toolOffsetMm[i] = -0.0 - 12.5 * (i + 1); });
+    add("servo.armToleranceMm", [servo](AvatarConfig& c) { servo(c).armToleranceMm = 75; });
+    add("servo.armDriftMm", [servo](AvatarConfig& c) { servo(c).armDriftMm = 0; });
+    add("servo.armDriftPerMm", [servo](AvatarConfig& c) { servo(c).armDriftPerMm = 0.125; });
+    add("servo.maxTargetJumpMm", [servo](AvatarConfig& c) { servo(c).maxTargetJumpMm = 33; });
+    add("servo.trackingRadiusMm", [servo](AvatarConfig& c) { servo(c).trackingRadiusMm = 90; });
+    add("servo.visionTimeoutMs", [servo](AvatarConfig& c) { servo(c).visionTimeoutMs = 1; });
+    add("servo.moveTimeoutMs", [servo](AvatarConfig& c) { servo(c).moveTimeoutMs = 600000; });
+    add("servo.lostTimeoutMs", [servo](AvatarConfig& c) { servo(c).lostTimeoutMs = 1234; });
+    add("servo.maxIterations", [servo](AvatarConfig& c) { servo(c).maxIterations = 20; });
+    add("servo.refineRegistration", [servo](AvatarConfig& c) { servo(c).refineRegistration = false; });
+    add("servo.probeAngleDeg", [servo](AvatarConfig& c) { servo(c).probeAngleDeg = 0; });
+    add("servo.registrationStdDeg", [servo](AvatarConfig& c) { servo(c).registrationStdDeg = 0.5; });
+    add("servo.kalman.sampleNoiseMm", [servo](AvatarConfig& c) { servo(c).kalmanSampleNoiseMm = 0; });
+    add("servo.kalman.armNoisePerMm", [servo](AvatarConfig& c) { servo(c).kalmanArmNoisePerMm = 0.5; });
+    add("servo.kalman.defaultSigmaMm", [servo](AvatarConfig& c) { servo(c).kalmanDefaultSigmaMm = 0.75; });
     return m;
 }
 

@@ -106,6 +106,40 @@ TEST(ConfigSamples, Scorpion) {
     EXPECT_TRUE(c.lighting == LightingConfig{});
 }
 
+// The servo simulation's configuration: the Scorpion pair and filters, both
+// types declared spheres, and the servo tuning that docs/servo.md measures.
+TEST(ConfigSamples, ServoSimulation) {
+    const AvatarConfig c = readConfigFile(kConfigDir / "servo-sim.xml");
+    const AvatarConfig scorpion = readConfigFile(kConfigDir / "scorpion.xml");
+    expectScorpionCamera(c.camera);
+    expectScorpionCalibration(c.stereo);
+    EXPECT_EQ(c.stereo.baseTVision, scorpion.stereo.baseTVision);
+    ASSERT_EQ(c.targets.targets.size(), 2u);
+    for (const char* name : {"sample", "arm_marker"}) {
+        const TargetType* t = findTarget(c, name);
+        const TargetType* s = findTarget(scorpion, name);
+        ASSERT_NE(t, nullptr);
+        ASSERT_NE(s, nullptr);
+        EXPECT_EQ(t->shape, TargetShape::Sphere) << name;
+        EXPECT_EQ(t->redGreen, s->redGreen) << name;
+        EXPECT_EQ(t->redBlue, s->redBlue) << name;
+        EXPECT_EQ(t->blueGreen, s->blueGreen) << name;
+    }
+    ASSERT_TRUE(c.servo.has_value());
+    const ServoConfig& v = *c.servo;
+    EXPECT_EQ(v.sampleType, "sample");
+    EXPECT_EQ(v.armType, "arm_marker");
+    EXPECT_EQ(v.mode, ServoMode::Hybrid);
+    EXPECT_EQ(v.filter, ServoFilter::None);
+    EXPECT_EQ(v.maxMoveMm, 50.0);
+    EXPECT_EQ(v.finalDistanceMm, 15.0);
+    EXPECT_EQ(v.toolOffsetMm, (std::array<double, 3>{0, -50, 0}));
+    EXPECT_EQ(v.armToleranceMm, 200.0);
+    EXPECT_TRUE(v.refineRegistration);
+    // Without a <servo> section a vision-only document has none.
+    EXPECT_FALSE(scorpion.servo.has_value());
+}
+
 TEST(ConfigSamples, Seabed) {
     const AvatarConfig c = readConfigFile(kConfigDir / "seabed.xml");
     expectScorpionCamera(c.camera);

@@ -50,7 +50,7 @@ message(STATUS "${compiled}")
 run(build ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j 2)
 run(run ${WORK_DIR}/build/downstream)
 
-set(expected "pair: group 2 member 5, 4x2 bayer RG 12-bit (owning)\nconfig round trip: identical\ntauunit: closed port gives ConnectionError for HELLO naming the endpoint\n")
+set(expected "pair: group 2 member 5, 4x2 bayer RG 12-bit (owning)\nconfig round trip: identical\ntauunit: closed port gives ConnectionError for HELLO naming the endpoint\nservo: simulated arm moved, state table as documented\n")
 if(NOT last_output STREQUAL expected)
   message(FATAL_ERROR "downstream program printed:\n${last_output}\nexpected:\n${expected}")
 endif()

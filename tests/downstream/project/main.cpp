@@ -1,5 +1,7 @@
 #include <avatar/common/StereoImagePair.h>
 #include <avatar/config/ConfigXml.h>
+#include <avatar/servo/SimulatedArm.h>
+#include <avatar/servo/VisualServo.h>
 #include <avatar/tau/TauUnit.h>
 
 #include <opencv2/core.hpp>
@@ -51,6 +53,21 @@ bool tauUnitReportsClosedPort() {
     return ok && unit.timings().size() == 1 && !unit.connected();
 }
 
+// The servo a controller links: its arm interface and its state table.
+bool servoLinks() {
+    avatar::servo::SimulatedArmOptions options;
+    options.repeatabilityMm = 0.0;
+    avatar::servo::SimulatedArm arm(options);
+    arm.moveTo({10.0, 0.0, 0.0});
+    const bool moved = arm.motionComplete() && arm.telemetry().baseTTool.translationMm[0] == 10.0;
+    const bool table = avatar::servo::nextState(avatar::servo::ServoState::ArmSampling,
+                                                avatar::servo::ServoEvent::MotionComplete) ==
+                       avatar::servo::ServoState::Done;
+    std::cout << "servo: simulated arm " << (moved ? "moved" : "did not move") << ", state table "
+              << (table ? "as documented" : "wrong") << "\n";
+    return moved && table;
+}
+
 }  // namespace
 
 int main() {
@@ -66,5 +83,6 @@ int main() {
     const auto back = avatar::readConfigString(avatar::writeConfigString(config), "downstream");
     std::cout << "config round trip: " << (back == config ? "identical" : "different") << "\n";
     const bool tauOk = tauUnitReportsClosedPort();
-    return back == config && tauOk ? 0 : 1;
+    const bool servoOk = servoLinks();
+    return back == config && tauOk && servoOk ? 0 : 1;
 }

@@ -6,8 +6,11 @@
 #include <avatar/config/CameraHardwareConfig.h>
 #include <avatar/config/LightingConfig.h>
 #include <avatar/config/MatchConfig.h>
+#include <avatar/config/ServoConfig.h>
 #include <avatar/config/StereoSystemConfig.h>
 #include <avatar/config/TargetConfig.h>
+
+#include <optional>
 
 namespace avatar {
 
@@ -20,10 +23,13 @@ struct AvatarConfig {
     StereoSystemConfig stereo;
     LightingConfig lighting;
     AnalysisConfig analysis;
+    /// The visual-servo tuning (<servo>), for the manipulator side; absent in
+    /// documents that only configure vision.
+    std::optional<ServoConfig> servo;
 
     bool operator==(const AvatarConfig& o) const {
         return camera == o.camera && targets == o.targets && match == o.match &&
-               stereo == o.stereo && lighting == o.lighting && analysis == o.analysis;
+               stereo == o.stereo && lighting == o.lighting && analysis == o.analysis && servo == o.servo;
     }
     bool operator!=(const AvatarConfig& o) const { return !(*this == o); }
 };

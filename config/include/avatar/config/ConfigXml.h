@@ -64,6 +64,10 @@ void validateTargetType(const TargetType& type);
 /// The form of the stage list (names, no repeats) and the analysis options.
 void validateAnalysisConfig(const AnalysisConfig& analysis);
 
+/// The visual-servo tuning, except that its type names name target types
+/// (which needs the document's <targets>; validateConfig() checks that too).
+void validateServoConfig(const ServoConfig& servo);
+
 /// Resolves a path stored in a configuration (e.g. LightingConfig::templateImagePath)
 /// against the directory of @p configFile, the file it was read from. Absolute
 /// and empty paths are returned unchanged.
