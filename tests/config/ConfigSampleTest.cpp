@@ -196,6 +196,10 @@ TEST(ConfigSamples, DocumentationExample) {
     EXPECT_EQ(c.targets.targets[1].shape, TargetShape::Sphere);
     EXPECT_EQ(c.analysis.demosaic, DemosaicAlgorithm::EdgeAware);
     EXPECT_EQ(c.analysis.stages, AnalysisConfig{}.stages);
+    ASSERT_TRUE(c.servo.has_value());
+    EXPECT_EQ(c.servo->armType, "red_ball");
+    EXPECT_EQ(c.servo->mode, ServoMode::Hybrid);
+    EXPECT_EQ(c.servo->toolOffsetMm, (std::array<double, 3>{0, -50, 0}));
 }
 
 }  // namespace

@@ -194,13 +194,14 @@ ServoWorld::ServoWorld(const WorldSpec& spec) : spec_(spec), background_(labBack
     armOptions_.staticBiasMm = bias;
     armOptions_.repeatabilityMm = spec_.repeatabilityMm;
     armOptions_.moveDuration = spec_.moveDuration;
-    armOptions_.seed = spec_.seed * 7919u + 1u;
+    const std::uint64_t noise = spec_.noiseSeed != 0 ? spec_.noiseSeed * 31337u + 17u : spec_.seed;
+    armOptions_.seed = noise * 7919u + 1u;
     arm_ = std::make_unique<servo::SimulatedArm>(armOptions_);
 
     render::RenderOptions options;
     options.sensor = render::sensorFormatFrom(spec_.config.camera);
     options.supersampling = spec_.supersampling;
-    options.seed = spec_.seed * 1000003u;
+    options.seed = noise * 1000003u;
     auto backend = std::make_unique<AcquireSIPSimulation>(sceneNow(), spec_.config.stereo, options);
     backend_ = backend.get();
     visionInterface_ = std::make_unique<VisionInterface>(std::move(backend), visionConfig_);

@@ -46,6 +46,9 @@ struct WorldSpec {
     /// The truth: calibration, registration (<baseTVision> required), targets, <servo>.
     AvatarConfig config;
     std::uint64_t seed{1};
+    /// Seeds the sensor and arm noise; 0: derived from seed. The same seed with
+    /// other noise seeds is the same world measured again (repeatability).
+    std::uint64_t noiseSeed{0};
     double registrationErrorDeg{5.0};  ///< of the registration the vision system is given
     double registrationErrorMm{20.0};
     double armBiasMm{20.0};            ///< static accuracy error of the arm

@@ -5,7 +5,7 @@
 //   avatar-servo-sim --runs N --seed S --registration-error-deg D --registration-error-mm M
 //                    --arm-bias-mm B --out DIR [--scenario static|moving|lost|distractor]
 //                    [--mode servo|hybrid] [--filter none|kalman] [--config FILE]
-//                    [--move-ms T] [--registration-runs K]
+//                    [--move-ms T] [--registration-runs K] [--no-refine]
 
 #include "Plot.h"
 #include "ServoWorld.h"
@@ -114,26 +114,21 @@ void writeRunCsv(const fs::path& path, const TaskOutcome& o) {
     if (!out) throw IoError("cannot write '" + path.string() + "'");
 }
 
-/// Figures 6-3 to 6-5: tool position, error and commanded moves per step.
+/// Figures 6-3 to 6-5: the tool's position relative to the sample, the
+/// distance and the commanded moves per step.
 void writeRunPlot(const fs::path& path, const TaskOutcome& o, std::uint64_t seed) {
     const std::size_t n = o.servo.steps.size() + 1;
-    Series tx{"tool x", std::vector<double>(n, kNaN), {200, 60, 30}};
-    Series ty{"tool y", std::vector<double>(n, kNaN), {40, 160, 40}};
-    Series tz{"tool z", std::vector<double>(n, kNaN), {30, 30, 200}};
-    Series sx{"sample x", std::vector<double>(n, kNaN), {240, 170, 130}};
-    Series sy{"sample y", std::vector<double>(n, kNaN), {150, 220, 150}};
-    Series sz{"sample z", std::vector<double>(n, kNaN), {140, 140, 240}};
+    Series tx{"x", std::vector<double>(n, kNaN), {200, 60, 30}};
+    Series ty{"y", std::vector<double>(n, kNaN), {40, 160, 40}};
+    Series tz{"z", std::vector<double>(n, kNaN), {30, 30, 200}};
     Series trueError{"true error", std::vector<double>(n, kNaN), {30, 30, 200}};
     Series estimated{"estimated", std::vector<double>(n, kNaN), {200, 60, 30}};
     Series moves{"|move|", std::vector<double>(n, kNaN), {40, 140, 40}};
     for (std::size_t i = 0; i < n; ++i) {
         const WorldTruth& t = i < o.servoLooks.size() ? o.servoLooks[i] : o.servoFinal;
-        tx.y[i] = t.toolTipBaseMm.x;
-        ty.y[i] = t.toolTipBaseMm.y;
-        tz.y[i] = t.toolTipBaseMm.z;
-        sx.y[i] = t.sampleBaseMm.x;
-        sy.y[i] = t.sampleBaseMm.y;
-        sz.y[i] = t.sampleBaseMm.z;
+        tx.y[i] = t.toolTipBaseMm.x - t.sampleBaseMm.x;
+        ty.y[i] = t.toolTipBaseMm.y - t.sampleBaseMm.y;
+        tz.y[i] = t.toolTipBaseMm.z - t.sampleBaseMm.z;
         trueError.y[i] = t.errorMm;
         if (i < o.servo.steps.size()) {
             const servo::ServoStep& s = o.servo.steps[i];
@@ -143,10 +138,16 @@ void writeRunPlot(const fs::path& path, const TaskOutcome& o, std::uint64_t seed
     }
     const std::string run = "seed " + std::to_string(seed) + ": ";
     const std::vector<Chart> charts = {
-        {run + "true tool tip and sample (base frame)", "step", "mm", {tx, ty, tz, sx, sy, sz}},
+        {run + "true tool tip minus sample, per base-frame axis", "step", "mm", {tx, ty, tz}},
         {run + "distance tool tip - sample", "step", "mm", {trueError, estimated}},
         {run + "commanded move", "step", "mm", {moves}}};
     if (!cv::imwrite(path.string(), drawCharts(charts))) throw IoError("cannot write '" + path.string() + "'");
+}
+
+void writeJson(const fs::path& path, const nlohmann::json& value) {
+    std::ofstream out(path);
+    out << value.dump(2) << "\n";
+    if (!out) throw IoError("cannot write '" + path.string() + "'");
 }
 
 ServoMode parseMode(const std::string& word) {
@@ -167,7 +168,7 @@ nlohmann::json registrationRuns(WorldSpec spec, int runs) {
     std::vector<double> rotationErrors, translationErrors, before, after;
     std::vector<std::array<double, 3>> eulers, translations;
     for (int k = 0; k < runs; ++k) {
-        spec.seed += k == 0 ? 0 : 1;
+        spec.noiseSeed = static_cast<std::uint64_t>(k) + 1u;  // the same world, measured again
         ServoWorld world(spec);
         ServoConfig once = world.servoConfig();
         once.mode = ServoMode::DeadReckoning;
@@ -205,6 +206,7 @@ nlohmann::json registrationRuns(WorldSpec spec, int runs) {
         before.push_back(deadBefore);
         after.push_back(deadAfter);
         out.push_back({{"seed", spec.seed},
+                       {"noise_seed", spec.noiseSeed},
                        {"points", reg.visionMm.size()},
                        {"skipped", reg.skipped},
                        {"rms_mm", round3(reg.registration.rmsMm)},
@@ -214,7 +216,8 @@ nlohmann::json registrationRuns(WorldSpec spec, int runs) {
                        {"translation_error_mm", round3(translationError)},
                        {"dead_reckoning_error_mm_before", round3(deadBefore)},
                        {"dead_reckoning_error_mm_after", round3(deadAfter)}});
-        std::cout << "registration " << k + 1 << "/" << runs << " (seed " << spec.seed << "): " << reg.visionMm.size()
+        std::cout << "registration " << k + 1 << "/" << runs << " (seed " << spec.seed << ", noise " << spec.noiseSeed
+                  << "): " << reg.visionMm.size()
                   << " points, rotation error " << rotationError << " deg, translation error " << translationError
                   << " mm; dead reckoning " << deadBefore << " -> " << deadAfter << " mm" << std::endl;
     }
@@ -256,10 +259,11 @@ int main(int argc, char** argv) {
         ("speed-mm", po::value<double>()->default_value(1.0), "moving: how far the sample drifts per look")
         ("mode", po::value<std::string>()->default_value(""), "servo or hybrid (default: the configuration's <servo><mode>)")
         ("filter", po::value<std::string>()->default_value(""), "none or kalman (default: the configuration's <servo><filter>)")
+        ("no-refine", "do not refine the registration during runs (<servo><refineRegistration> false)")
         ("config", po::value<std::string>(), "AVATAR configuration with the true calibration, registration and <servo> (default: data/config/servo-sim.xml, built in)")
         ("move-ms", po::value<int>()->default_value(0), "duration of a simulated arm move")
         ("supersampling", po::value<int>()->default_value(2), "rendering: samples per edge pixel per axis")
-        ("registration-runs", po::value<int>()->default_value(0), "also run the automated registration K times (registration.json, Table 6-6)")
+        ("registration-runs", po::value<int>()->default_value(0), "also run the automated registration K times on the world of --seed, each with fresh sensor and arm noise (registration.json: repeatability as Table 6-6, errors against the truth)")
         ("log-level", po::value<std::string>()->default_value("warn"), "debug, info, notice, warn, error");
     // clang-format on
     po::variables_map vm;
@@ -295,6 +299,7 @@ int main(int argc, char** argv) {
         if (!vm["mode"].as<std::string>().empty()) spec.config.servo->mode = parseMode(vm["mode"].as<std::string>());
         if (!vm["filter"].as<std::string>().empty())
             spec.config.servo->filter = parseFilter(vm["filter"].as<std::string>());
+        if (vm.count("no-refine")) spec.config.servo->refineRegistration = false;
         spec.registrationErrorDeg = vm["registration-error-deg"].as<double>();
         spec.registrationErrorMm = vm["registration-error-mm"].as<double>();
         spec.armBiasMm = vm["arm-bias-mm"].as<double>();
@@ -337,11 +342,12 @@ int main(int argc, char** argv) {
                       << (o.servo.reason.empty() ? "" : " (" + o.servo.reason + ")") << std::endl;
         }
         if (runs > 0) {
-            std::ofstream(out / "summary.json") << summary.dump(2) << "\n";
+            writeJson(out / "summary.json", summary);
             const nlohmann::json report = {
                 {"scenario", toString(spec.scenario)},
                 {"mode", spec.config.servo->mode == ServoMode::Hybrid ? "hybrid" : "servo"},
                 {"filter", spec.config.servo->filter == ServoFilter::Kalman ? "kalman" : "none"},
+                {"refine_registration", spec.config.servo->refineRegistration},
                 {"registration_error_deg", spec.registrationErrorDeg},
                 {"registration_error_mm", spec.registrationErrorMm},
                 {"arm_bias_mm", spec.armBiasMm},
@@ -351,7 +357,7 @@ int main(int argc, char** argv) {
                 {"final_error_mm", toJson(stats(finals))},
                 {"iterations", toJson(stats(iterations))},
                 {"dead_reckoning_error_mm", toJson(stats(deads))}};
-            std::ofstream(out / "report.json") << report.dump(2) << "\n";
+            writeJson(out / "report.json", report);
             const Stats f = stats(finals), d = stats(deads), it = stats(iterations);
             std::cout << converged << "/" << runs << " converged, " << within5 << " within 5 mm; final error median "
                       << f.median << " mm, max " << f.max << " mm; iterations median " << it.median << ", max "
@@ -360,7 +366,8 @@ int main(int argc, char** argv) {
         if (registrationRunCount > 0) {
             spec.seed = firstSeed;
             spec.scenario = Scenario::Static;
-            std::ofstream(out / "registration.json") << registrationRuns(spec, registrationRunCount).dump(2) << "\n";
+            const nlohmann::json registration = registrationRuns(spec, registrationRunCount);
+            writeJson(out / "registration.json", registration);
         }
         return 0;
     } catch (const Error& e) {
