@@ -454,7 +454,17 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         return built;
     }
     target.positionVisionMm = point->leftMm;
-    target.positionBaseMm = point->baseMm;
+    const auto finitePoint = [](const cv::Point3d& q) {
+        return std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
+    };
+    const auto finiteMatrix = [](const cv::Matx33d& m) {
+        for (double v : m.val)
+            if (!std::isfinite(v)) return false;
+        return true;
+    };
+    // Never a non-finite number in a result: a base position the registration
+    // cannot give is left out (the configuration's ranges keep this from happening).
+    if (point->baseMm && finitePoint(*point->baseMm)) target.positionBaseMm = point->baseMm;
     target.rayResidualMm = point->rayGapMm;
     target.rayResidualPx = point->reprojectionPx;
     const cv::Matx22d covL = views[0].silhouette.centroidCovariance, covR = views[1].silhouette.centroidCovariance;
@@ -466,9 +476,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     } else {
         cov = calculator_.covariancePixels(pl, pr, covL, covR);
     }
-    if (cov) {
+    if (cov && finiteMatrix(*cov)) {
         target.covarianceVisionMm2 = *cov;
-        if (calculator_.hasRegistration()) target.covarianceBaseMm2 = calculator_.covarianceToBase(*cov);
+        if (target.positionBaseMm) target.covarianceBaseMm2 = calculator_.covarianceToBase(*cov);
     }
 
     // The two views must agree on the target's size at its range.

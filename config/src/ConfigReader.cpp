@@ -624,12 +624,58 @@ ServoConfig readServo(Reader& r, const XMLElement* el, const std::string& path) 
     return c;
 }
 
+/// What tinyxml2 lets through but a configuration must not hold: a NUL byte
+/// (tinyxml2 stops reading there, so whatever follows would be ignored) and
+/// entity references other than XML's five and character references
+/// (tinyxml2 keeps an undeclared one as literal text). Comments and CDATA
+/// sections are not looked into.
+void checkRawText(const std::string& xml, const Reader& r) {
+    const auto lineAt = [&](std::size_t offset) {
+        return 1 + static_cast<int>(std::count(xml.begin(), xml.begin() + static_cast<std::ptrdiff_t>(offset), '\n'));
+    };
+    if (const std::size_t nul = xml.find('\0'); nul != std::string::npos) {
+        r.fail(lineAt(nul), "/", "malformed XML: a NUL byte at offset " + std::to_string(nul) +
+                                     " (nothing may follow the document, and no NUL may be in it)");
+    }
+    std::size_t i = 0;
+    while ((i = xml.find_first_of("<&", i)) != std::string::npos) {
+        if (xml.compare(i, 4, "<!--") == 0) {
+            const std::size_t end = xml.find("-->", i + 4);
+            i = end == std::string::npos ? xml.size() : end + 3;
+            continue;
+        }
+        if (xml.compare(i, 9, "<![CDATA[") == 0) {
+            const std::size_t end = xml.find("]]>", i + 9);
+            i = end == std::string::npos ? xml.size() : end + 3;
+            continue;
+        }
+        if (xml[i] == '<') {
+            ++i;
+            continue;
+        }
+        const std::size_t semicolon = xml.find(';', i + 1);
+        const std::string name =
+            semicolon == std::string::npos || semicolon - i > 32 ? std::string() : xml.substr(i + 1, semicolon - i - 1);
+        const bool known = name == "amp" || name == "lt" || name == "gt" || name == "quot" || name == "apos" ||
+                           (name.size() > 1 && name[0] == '#');
+        if (!known) {
+            r.fail(lineAt(i), "/",
+                   name.empty() || name.find_first_of(" \t\r\n<&") != std::string::npos
+                       ? std::string("malformed XML: a '&' that starts no entity reference (write &amp;)")
+                       : "undeclared entity '&" + name + ";' (only &amp; &lt; &gt; &quot; &apos; and character "
+                                                          "references are allowed)");
+        }
+        i = semicolon + 1;
+    }
+}
+
 }  // namespace
 
 ParsedDocument parseDocument(const std::string& xml, const std::string& source) {
     ParsedDocument parsed;
     Reader r(source, parsed.lines);
 
+    checkRawText(xml, r);
     XMLDocument doc;  // entities processed, white space preserved (trimmed per value)
     if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS) {
         r.fail(doc.ErrorLineNum(), "/", malformedMessage(doc));

@@ -91,6 +91,43 @@ public:
         }
     }
 
+    /// Every component within [lo, hi].
+    template <std::size_t N>
+    void allBetween(const std::array<double, N>& values, double lo, double hi, const std::string& path) const {
+        for (std::size_t i = 0; i < N; ++i) {
+            between(values[i], lo, hi, path, component(i));
+        }
+    }
+
+    /// The Euclidean length of @p values within [lo, hi], named @p what.
+    template <std::size_t N>
+    void lengthBetween(const std::array<double, N>& values, double lo, double hi, const std::string& path,
+                       const std::string& what) const {
+        const double length = euclidean(values, path);
+        if (!(length >= lo && length <= hi)) {
+            fail(path, what + " must be between " + formatDouble(lo) + " and " + formatDouble(hi) + ", got " +
+                           formatDouble(length));
+        }
+    }
+
+    /// The Euclidean length, computed without overflow or underflow.
+    template <std::size_t N>
+    double euclidean(const std::array<double, N>& values, const std::string& path) const {
+        allFinite(values, path);
+        double scale = 0.0;
+        for (double v : values) {
+            scale = std::max(scale, std::abs(v));
+        }
+        if (scale == 0.0) {
+            return 0.0;
+        }
+        double sq = 0.0;
+        for (double v : values) {
+            sq += (v / scale) * (v / scale);
+        }
+        return scale * std::sqrt(sq);
+    }
+
     /// Free text that survives the XML round trip unchanged.
     void text(const std::string& value, const std::string& path) const {
         for (char c : value) {
@@ -263,13 +300,23 @@ void validateMatch(const Checker& k, const MatchConfig& m) {
     k.between(m.shape.maxAreaRatio, 1.0, kInf, s + "/maxAreaRatio");
 }
 
+// Physical ranges of the calibration and geometry (docs/config.md): wide
+// enough for any real lens and rig, narrow enough that no value in them turns
+// a position into an infinity or a NaN.
+constexpr double kMaxFocalPx = 1e6;         ///< a 1 mm sensor behind a 1 km lens is still below it
+constexpr double kMaxPrincipalPx = 1e5;     ///< checked against the image size where it is known
+constexpr double kMaxSkew = 1.0;            ///< alpha_c: 45 degrees between the pixel axes
+constexpr double kMaxDistortion = 1e3;      ///< |kc|: a fisheye's plumb bob stays far below
+constexpr double kMinBaselineMm = 1.0;
+constexpr double kMaxBaselineMm = 100000.0; ///< 100 m
+constexpr double kMaxTranslationMm = 1e7;   ///< 10 km: camera to manipulator base
+constexpr double kPi = 3.14159265358979323846;
+
 void validateIntrinsics(const Checker& k, const CameraIntrinsics& in, const std::string& p) {
-    for (std::size_t i = 0; i < 2; ++i) {
-        k.positive(in.fc[i], p + "/fc", Checker::component(i));
-    }
-    k.allFinite(in.cc, p + "/cc");
-    k.finite(in.alphaC, p + "/alphaC");
-    k.allFinite(in.kc, p + "/kc");
+    k.allBetween(in.fc, 1.0, kMaxFocalPx, p + "/fc");
+    k.allBetween(in.cc, -kMaxPrincipalPx, kMaxPrincipalPx, p + "/cc");
+    k.between(in.alphaC, -kMaxSkew, kMaxSkew, p + "/alphaC");
+    k.allBetween(in.kc, -kMaxDistortion, kMaxDistortion, p + "/kc");
 }
 
 /// The principal point lies inside the image.
@@ -311,32 +358,32 @@ void validateStereo(const Checker& k, const StereoSystemConfig& s) {
     const std::string p = kStereoPath;
     validateIntrinsics(k, s.left, p + "/left");
     validateIntrinsics(k, s.right, p + "/right");
-    k.allFinite(s.om, p + "/om");
-    k.allFinite(s.translationMm, p + "/translationMm");
+    if (const double angle = k.euclidean(s.om, p + "/om"); angle > kPi * (1.0 + 1e-12)) {
+        k.fail(p + "/om", "the rotation angle |om| must be at most pi (180 degrees), got " + formatDouble(angle) +
+                              " rad");
+    }
     const auto& t = s.translationMm;
     if (t[0] == 0.0 && t[1] == 0.0 && t[2] == 0.0) {
         k.fail(p + "/translationMm", "the baseline must not be zero");
     }
+    k.lengthBetween(t, kMinBaselineMm, kMaxBaselineMm, p + "/translationMm", "the baseline |T| (mm)");
     if (s.baseTVision) {
         validateRotation(k, s.baseTVision->rotation, p + "/baseTVision/rotation");
-        k.allFinite(s.baseTVision->translationMm, p + "/baseTVision/translationMm");
+        k.allBetween(s.baseTVision->translationMm, -kMaxTranslationMm, kMaxTranslationMm,
+                     p + "/baseTVision/translationMm");
     }
     if (s.uncertainty) {
-        // Standard errors: finite and not negative.
         const std::string u = p + "/uncertainty";
-        const auto nonNegative = [&](const auto& values, const std::string& path) {
-            for (std::size_t i = 0; i < values.size(); ++i)
-                k.between(values[i], 0.0, kInf, path, Checker::component(i));
-        };
+        // Standard errors: not negative, and no larger than the range of what they measure.
         for (const auto& [name, in] : {std::pair<const char*, const IntrinsicsUncertainty&>{"/left", s.uncertainty->left},
                                        {"/right", s.uncertainty->right}}) {
-            nonNegative(in.fc, u + name + "/fc");
-            nonNegative(in.cc, u + name + "/cc");
-            k.between(in.alphaC, 0.0, kInf, u + name + "/alphaC");
-            nonNegative(in.kc, u + name + "/kc");
+            k.allBetween(in.fc, 0.0, kMaxFocalPx, u + name + "/fc");
+            k.allBetween(in.cc, 0.0, kMaxPrincipalPx, u + name + "/cc");
+            k.between(in.alphaC, 0.0, kMaxSkew, u + name + "/alphaC");
+            k.allBetween(in.kc, 0.0, kMaxDistortion, u + name + "/kc");
         }
-        nonNegative(s.uncertainty->om, u + "/om");
-        nonNegative(s.uncertainty->translationMm, u + "/translationMm");
+        k.allBetween(s.uncertainty->om, 0.0, kPi, u + "/om");
+        k.allBetween(s.uncertainty->translationMm, 0.0, kMaxBaselineMm, u + "/translationMm");
     }
 }
 

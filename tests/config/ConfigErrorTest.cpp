@@ -218,7 +218,7 @@ const std::vector<BadDocument> kBadDocuments = {
     {"min above max", {{"<min>2.5</min><max>100</max>", "<min>200</min><max>100</max>"}},
      "t.xml:17: /avatar/targets/target[1]/redBlue: min 200 is above max 100"},
     {"focal length zero", {{"<fc>1047.2 1048.66</fc>", "<fc>1047.2 0</fc>"}},
-     "t.xml:36: /avatar/stereo/right/fc: component 2 must be > 0, got 0"},
+     "t.xml:36: /avatar/stereo/right/fc: component 2 must be between 1 and 1e+06, got 0"},
     {"principal point outside the image", {{"<cc>712.28 564.45</cc>", "<cc>1500 564.45</cc>"}},
      "t.xml:35: /avatar/stereo/left/cc: component 1 (x, image width 1280) must be between 0 and 1280, got 1500"},
     {"zero baseline", {{"<translationMm>-106.53 -2.58 0.82</translationMm>", "<translationMm>0 0 0</translationMm>"}},
@@ -274,6 +274,26 @@ const std::vector<BadDocument> kBadDocuments = {
      "t.xml:53: /avatar/servo/maxMoveMm: must be > 0, got -5"},
     {"servo unknown element", {{"  </lighting>\n", "  </lighting>\n  <servo><armType>marker</armType><gain>2</gain></servo>\n"}},
      "t.xml:53: /avatar/servo/gain: unknown element <gain>"},
+    {"huge baseline", {{"<translationMm>-106.53 -2.58 0.82</translationMm>\n    <baseTVision>", "<translationMm>1e308 1e308 1e308</translationMm>\n    <baseTVision>"}},
+     "t.xml:38: /avatar/stereo/translationMm: the baseline |T| (mm) must be between 1 and 1e+05, got 1.7320508075688772e+308"},
+    {"denormal baseline", {{"<translationMm>-106.53 -2.58 0.82</translationMm>\n    <baseTVision>", "<translationMm>1e-320 0 0</translationMm>\n    <baseTVision>"}},
+     "t.xml:38: /avatar/stereo/translationMm: the baseline |T| (mm) must be between 1 and 1e+05, got 1e-320"},
+    {"huge focal length", {{"<fc>1049.13 1050.38</fc>", "<fc>1e300 1050.38</fc>"}},
+     "t.xml:35: /avatar/stereo/left/fc: component 1 must be between 1 and 1e+06, got 1e+300"},
+    {"tiny focal length", {{"<fc>1049.13 1050.38</fc>", "<fc>1e-300 1050.38</fc>"}},
+     "t.xml:35: /avatar/stereo/left/fc: component 1 must be between 1 and 1e+06, got 1e-300"},
+    {"huge distortion", {{"<left><fc>1049.13 1050.38</fc><cc>712.28 564.45</cc></left>", "<left><fc>1049.13 1050.38</fc><cc>712.28 564.45</cc><kc>1e300 0 0 0 0</kc></left>"}},
+     "t.xml:35: /avatar/stereo/left/kc: component 1 must be between -1000 and 1000, got 1e+300"},
+    {"huge rotation vector", {{"<om>0.002 0.003 0.047</om>", "<om>1e200 0 0</om>"}},
+     "t.xml:37: /avatar/stereo/om: the rotation angle |om| must be at most pi (180 degrees), got 1e+200 rad"},
+    {"huge registration translation", {{"<translationMm>100 200 300</translationMm>", "<translationMm>1e308 200 300</translationMm>"}},
+     "t.xml:41: /avatar/stereo/baseTVision/translationMm: component 1 must be between -1e+07 and 1e+07, got 1e+308"},
+    {"undeclared entity", {{"<method>epipolar_box</method>", "<method>&shape;</method>"}},
+     "t.xml:31: /: undeclared entity '&shape;' (only &amp; &lt; &gt; &quot; &apos; and character references are allowed)"},
+    {"bare ampersand", {{"<method>epipolar_box</method>", "<method>epipolar & box</method>"}},
+     "t.xml:31: /: malformed XML: a '&' that starts no entity reference (write &amp;)"},
+    {"text after the root element", {{"</avatar>\n", "</avatar>\njunk\n"}},
+     "t.xml:54: /: malformed XML: cannot parse text (XML_ERROR_PARSING_TEXT)"},
     {"falloff coefficient zero", {{"<coefficient>1</coefficient><exponent>0.0008", "<coefficient>0</coefficient><exponent>0.0008"}},
      "t.xml:50: /avatar/lighting/pattern/blue/coefficient: must be > 0, got 0"},
 };
@@ -300,6 +320,25 @@ INSTANTIATE_TEST_SUITE_P(Table, BadDocumentTest, ::testing::ValuesIn(kBadDocumen
 
 TEST(ConfigErrors, TableIsLargeEnough) {
     EXPECT_GE(kBadDocuments.size(), 25u);
+}
+
+// tinyxml2 stops at a NUL: a valid document followed by one and anything else
+// must not be taken for the document alone.
+TEST(ConfigErrors, ANulByteAndWhatFollowsIsRejected) {
+    std::string doc = kBase;
+    doc += std::string(1, '\0') + "<avatar version=\"1\">junk";
+    try {
+        readConfigString(doc, "t.xml");
+        ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+        EXPECT_EQ(std::string(e.what()), "t.xml:54: /: malformed XML: a NUL byte at offset " +
+                                             std::to_string(kBase.size()) +
+                                             " (nothing may follow the document, and no NUL may be in it)");
+    }
+    // Entities in comments and CDATA are not references.
+    std::string commented = kBase;
+    commented.replace(commented.find("<camera>"), 8, "<!-- &nbsp; & --><camera>");
+    EXPECT_NO_THROW(readConfigString(commented, "t.xml"));
 }
 
 TEST(ConfigErrors, IsAnAvatarError) {
@@ -410,7 +449,7 @@ const std::vector<BadConfig> kBadConfigs = {
     {"shape error zero", [](AvatarConfig& c) { c.match.shape.maxError = 0; },
      "<memory>:0: /avatar/match/shape/maxError: must be > 0, got 0"},
     {"negative focal length", [](AvatarConfig& c) { c.stereo.left.fc[0] = -1049; },
-     "<memory>:0: /avatar/stereo/left/fc: component 1 must be > 0, got -1049"},
+     "<memory>:0: /avatar/stereo/left/fc: component 1 must be between 1 and 1e+06, got -1049"},
     {"principal point below the image", [](AvatarConfig& c) { c.stereo.right.cc[1] = 800; },
      "<memory>:0: /avatar/stereo/right/cc: component 2 (y, image height 767) must be between 0 and 767, got 800"},
     {"distortion not finite", [](AvatarConfig& c) { c.stereo.right.kc[4] = kNan; },
@@ -419,7 +458,7 @@ const std::vector<BadConfig> kBadConfigs = {
          c.stereo.uncertainty = CalibrationUncertainty{};
          c.stereo.uncertainty->right.kc[1] = -0.1;
      },
-     "<memory>:0: /avatar/stereo/uncertainty/right/kc: component 2 must be >= 0, got -0.1"},
+     "<memory>:0: /avatar/stereo/uncertainty/right/kc: component 2 must be between 0 and 1000, got -0.1"},
     {"standard error not finite", [](AvatarConfig& c) {
          c.stereo.uncertainty = CalibrationUncertainty{};
          c.stereo.uncertainty->translationMm[2] = kNan;

@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <memory>
 #include <set>
 #include <string>
@@ -415,6 +417,48 @@ TEST_F(TauUnitServerTest, RejectedConfigKeepsTheOldOne) {
     EXPECT_EQ(after.configVersion, before.configVersion);
     EXPECT_EQ(after.configIteration, before.configIteration);
     EXPECT_EQ(after.xml, before.xml);
+}
+
+// Values a hostile or careless client could send that once corrupted every
+// position ((nan, -inf, nan) flagged valid), and XML that tinyxml2 alone lets
+// through: each is refused by the daemon and the old configuration stays.
+TEST_F(TauUnitServerTest, ExtremeValuesAndTrickyXmlAreRejected) {
+    TauUnit unit(options());
+    const ConfigReply before = unit.getConfig();
+    const auto edited = [&](const std::string& from, const std::string& to) {
+        std::string xml = before.xml;
+        const auto at = xml.find(from);
+        EXPECT_NE(at, std::string::npos) << from;
+        if (at != std::string::npos) xml.replace(at, from.size(), to);
+        return xml;
+    };
+    const auto translation = before.xml.find("<translationMm>");
+    ASSERT_NE(translation, std::string::npos);
+    const std::string firstTranslation =
+        before.xml.substr(translation, before.xml.find("</translationMm>", translation) + 16 - translation);
+    const std::vector<std::pair<std::string, std::string>> bad = {
+        {edited(firstTranslation, "<translationMm>1e308 1e308 1e308</translationMm>"), "baseline"},
+        {edited(firstTranslation, "<translationMm>1e-320 0 0</translationMm>"), "baseline"},
+        {edited("<fc>1049.13 1050.38</fc>", "<fc>1e300 1050.38</fc>"), "/fc"},
+        {edited("<fc>1049.13 1050.38</fc>", "<fc>1e-300 1050.38</fc>"), "/fc"},
+        {edited("<om>0.002 0.003 0.047</om>", "<om>1e200 0 0</om>"), "/om"},
+        {before.xml + std::string(1, '\0') + "junk", "NUL byte"},
+        {edited("<width>1280</width>", "<width>&w;</width>"), "undeclared entity '&w;'"},
+    };
+    for (const auto& [xml, expected] : bad) {
+        SCOPED_TRACE(expected);
+        const auto e = expectThrow<ConfigRejectedError>([&] { unit.sendConfig(xml); });
+        EXPECT_NE(e.serverMessage().find(expected), std::string::npos) << e.serverMessage();
+    }
+    const ConfigReply after = unit.getConfig();
+    EXPECT_EQ(after.configVersion, before.configVersion);
+    EXPECT_EQ(after.xml, before.xml);
+    // And the targets are still finite.
+    for (const VisionTarget& t : unit.takeSnapshot().targets) {
+        if (!t.positionBaseMm) continue;
+        EXPECT_TRUE(std::isfinite(t.positionBaseMm->x) && std::isfinite(t.positionBaseMm->y) &&
+                    std::isfinite(t.positionBaseMm->z));
+    }
 }
 
 TEST_F(TauUnitServerTest, ReconnectAfterTheServerRestarts) {
