@@ -73,8 +73,12 @@ bool SessionRecorder::record(const StereoImagePair& pair, std::uint64_t iteratio
                             " is slower than the acquisition)";
         const std::string message = status_.lastError + "; " + std::to_string(status_.unrecorded()) +
                                     " pairs not recorded so far";
+        const bool change = !losing_;
+        losing_ = true;
         lock.unlock();
-        logger().warn("%s", message.c_str());
+        // A loss of recording is a state change: logged once, then once more when it ends.
+        if (change) logger().warn("%s", message.c_str());
+        else logger().debug("%s", message.c_str());
         return false;
     }
     Item item;
@@ -125,13 +129,17 @@ void SessionRecorder::run() {
 
 void SessionRecorder::fail(const std::string& message) {
     std::size_t unrecorded = 0;
+    bool change = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);
         ++status_.failed;
         status_.lastError = message;
         unrecorded = status_.unrecorded();
+        change = !losing_;
+        losing_ = true;
     }
-    logger().error("%s; %zu pairs not recorded so far", message.c_str(), unrecorded);
+    if (change) logger().error("%s; %zu pairs not recorded so far", message.c_str(), unrecorded);
+    else logger().debug("%s; %zu pairs not recorded so far", message.c_str(), unrecorded);
 }
 
 void SessionRecorder::write(Item& item) {
@@ -148,8 +156,18 @@ void SessionRecorder::write(Item& item) {
         record.files = sink_->writePair(item.pair);
         sink_->append(record);
         appendedVersion_ = item.configVersion;
-        std::lock_guard<std::mutex> lock(mutex_);
-        ++status_.recorded;
+        std::size_t unrecorded = 0;
+        bool resumed = false;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            ++status_.recorded;
+            resumed = losing_;
+            losing_ = false;
+            unrecorded = status_.unrecorded();
+        }
+        if (resumed)
+            logger().notice("recording resumed in %s at iteration %llu (%zu pairs not recorded so far)",
+                            sink_->describe().c_str(), static_cast<unsigned long long>(item.iteration), unrecorded);
     } catch (const std::exception& e) {
         // avatar::Error names the file; anything else (bad_alloc) is reported the same way.
         fail(what + e.what());

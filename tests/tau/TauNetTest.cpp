@@ -1216,6 +1216,87 @@ TEST(TauNetDaemon, SigtermShutsDownCleanly) {
     std::filesystem::remove_all(recording);
 }
 
+// What a client sends never shapes the daemon's log: a name with a newline
+// cannot forge a line, and a flood of bad frames is summarised, not written
+// out one WARN line each (it was 11 MB for 100,000 frames).
+TEST(TauNetDaemon, TheLogCannotBeForgedOrFlooded) {
+    const std::string errPath = ::testing::TempDir() + "taunet_flood.log";
+    Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
+                               "--port", "0", "--log", "info"},
+                              errPath);
+    std::string out;
+    const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
+    if (!m) {
+        waitExit(child.pid, 0ms);
+        FAIL() << "no 'listening on' line; stderr: " << slurp(errPath);
+    }
+    const auto port = static_cast<std::uint16_t>(std::stoi((*m)[1].str()));
+    const std::size_t before = slurp(errPath).size();
+    {
+        Client c(port);
+        ASSERT_TRUE(c.send(frame(kHello, 1, helloPayload(2, "evil\n00:00:00,000 NOTICE avatar.taunet: FORGED\\"))));
+        EXPECT_EQ(c.next().type, 0x8001);
+        Bytes flood;
+        const int frames = 100000;
+        for (int i = 0; i < frames; ++i) {
+            const Bytes f = frame(0x0777, static_cast<std::uint32_t>(i + 2));
+            flood.insert(flood.end(), f.begin(), f.end());
+        }
+        ASSERT_TRUE(c.send(flood));
+        // Every frame is still answered UNKNOWN_MESSAGE.
+        RawFrame last;
+        for (int i = 0; i < frames; ++i) {
+            last = c.next();
+            ASSERT_EQ(last.type, 0xFFFF);
+        }
+        EXPECT_EQ(last.request, static_cast<std::uint32_t>(frames + 1));
+    }
+    ASSERT_EQ(::kill(child.pid, SIGTERM), 0);
+    ASSERT_TRUE(waitExit(child.pid, 15s).has_value());
+    ::close(child.out);
+    const std::string log = slurp(errPath);
+    const std::string during = log.substr(before);
+    EXPECT_LT(during.size(), 20000u) << "the flood wrote " << during.size() << " bytes of log";
+    EXPECT_EQ(std::count(during.begin(), during.end(), '\n') < 40, true) << during;
+    EXPECT_NE(during.find("more warnings about this client suppressed"), std::string::npos) << during;
+    EXPECT_NE(during.find("is 'evil\\x0a00:00:00,000 NOTICE avatar.taunet: FORGED\\x5c'"), std::string::npos)
+        << during;
+    std::istringstream lines(log);
+    for (std::string line; std::getline(lines, line);) EXPECT_NE(line.rfind("00:00:00,000", 0), 0u) << line;
+}
+
+// The end of a replay is a state change: one NOTICE, however many snapshots
+// are asked for after it (it was an ERROR, again for every snapshot).
+TEST(TauNetDaemon, TheEndOfAReplayIsLoggedOnceAsANotice) {
+    const std::string errPath = ::testing::TempDir() + "taunet_replay_end.log";
+    Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
+                               "--port", "0", "--log", "info"},
+                              errPath);
+    std::string out;
+    const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
+    if (!m) {
+        waitExit(child.pid, 0ms);
+        FAIL() << "no 'listening on' line; stderr: " << slurp(errPath);
+    }
+    {
+        Client c(static_cast<std::uint16_t>(std::stoi((*m)[1].str())));
+        c.hello();
+        for (std::uint32_t i = 0; i < 6; ++i) {
+            const RawFrame r = c.request(kSnapshot, 2 + i, u32Payload(30000));
+            EXPECT_EQ(r.type, i < 3 ? 0x8004 : 0xFFFF) << "snapshot " << i + 1;
+        }
+    }
+    ASSERT_EQ(::kill(child.pid, SIGTERM), 0);
+    ASSERT_TRUE(waitExit(child.pid, 15s).has_value());
+    ::close(child.out);
+    const std::string log = slurp(errPath);
+    std::size_t notices = 0;
+    for (std::size_t at = 0; (at = log.find("NOTICE avatar.vision: acquisition finished", at)) != std::string::npos; ++at)
+        ++notices;
+    EXPECT_EQ(notices, 1u) << log;
+    EXPECT_EQ(log.find(" ERROR "), std::string::npos) << log;
+}
+
 TEST(TauNetDaemon, BackendThatCannotStartIsAClearError) {
     const std::string errPath = ::testing::TempDir() + "taunet_backend.log";
     struct Case {

@@ -38,6 +38,31 @@ namespace {
 
 log4cpp::Category& log() { return logging::category("taunet"); }
 
+/// Text from the wire made safe to log: control characters (a newline would
+/// forge a log line) and backslashes are written as \xNN escapes.
+std::string printable(const std::string& text) {
+    std::string out;
+    out.reserve(text.size());
+    for (const char c : text) {
+        const auto u = static_cast<unsigned char>(c);
+        if (u < 0x20 || u == 0x7f || c == '\\') {
+            static const char* const kHex = "0123456789abcdef";
+            out += "\\x";
+            out += kHex[u >> 4];
+            out += kHex[u & 0xf];
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
+
+/// Warnings about one client's mistakes: the first kWarningBurst are logged,
+/// then at most one summary per kWarningSummaryPeriod (and one at the close),
+/// so a client sending garbage cannot flood the log.
+constexpr std::uint64_t kWarningBurst = 10;
+constexpr std::chrono::seconds kWarningSummaryPeriod{10};
+
 std::string describe(const tcp::endpoint& e) {
     std::string a = e.address().to_string();
     if (e.address().is_v6()) a = "[" + a + "]";
@@ -142,6 +167,7 @@ public:
         socket_.close(ec);
         timer_.cancel();
         server_.remove(id_);
+        summariseWarnings();
         log().info("%s disconnected: %s", name_.c_str(), why.c_str());
     }
 
@@ -152,6 +178,25 @@ private:
         Draining,  ///< the closing ERROR is written: reading and discarding until EOF or linger timeout
         Closed
     };
+
+    // ---- the warning budget ------------------------------------------------
+
+    /// True when a warning about this client may be logged now; otherwise it
+    /// is counted, and summarised at most every kWarningSummaryPeriod.
+    bool mayWarn() {
+        if (++warnings_ <= kWarningBurst) return true;
+        ++suppressed_;
+        if (std::chrono::steady_clock::now() - lastSummary_ >= kWarningSummaryPeriod) summariseWarnings();
+        return false;
+    }
+
+    void summariseWarnings() {
+        if (suppressed_ == 0) return;
+        log().warn("%s: %llu more warnings about this client suppressed (%llu in all)", name_.c_str(),
+                   static_cast<unsigned long long>(suppressed_), static_cast<unsigned long long>(warnings_));
+        suppressed_ = 0;
+        lastSummary_ = std::chrono::steady_clock::now();
+    }
 
     // ---- reading -----------------------------------------------------------
 
@@ -221,7 +266,9 @@ private:
         if (type == static_cast<std::uint16_t>(MessageType::Hello)) return hello(frame);
         if (!detail::RequestHandler::known(type)) {
             ++server_.protocolErrors;
-            log().warn("%s sent unknown message type %s (request %u)", name_.c_str(), messageName(type).c_str(), id);
+            if (mayWarn())
+                log().warn("%s sent unknown message type %s (request %u)", name_.c_str(), messageName(type).c_str(),
+                           id);
             reply(detail::errorAnswer(id, {ErrorCode::UnknownMessage, "unknown message type " + messageName(type)}).frame);
             return;
         }
@@ -265,12 +312,12 @@ private:
             m = decodeHello(frame.payload);
         } catch (const ProtocolError& e) {
             ++server_.protocolErrors;
-            log().warn("%s: HELLO (request %u): %s", name_.c_str(), id, e.what());
+            if (mayWarn()) log().warn("%s: HELLO (request %u): %s", name_.c_str(), id, printable(e.what()).c_str());
             reply(detail::errorAnswer(id, {e.code(), detail::messageOf(e)}).frame);
             return;
         }
         if (!hello_)
-            log().info("%s is '%s' (protocol version %u)", name_.c_str(), m.clientName.c_str(),
+            log().info("%s is '%s' (protocol version %u)", name_.c_str(), printable(m.clientName).c_str(),
                        static_cast<unsigned>(m.version));
         hello_ = true;
         version_ = m.version;
@@ -284,15 +331,16 @@ private:
         // The client's mistakes are warnings; refusing a valid request is information.
         const bool clientFault = e.code == ErrorCode::BadPayload;
         if (clientFault) ++server_.protocolErrors;
+        if (clientFault && !mayWarn()) return;
         log().log(clientFault ? log4cpp::Priority::WARN : log4cpp::Priority::INFO, "%s: %s (request %u) answered %s: %s",
                   name_.c_str(), messageName(request.header.type).c_str(), request.header.request, errorName(e.code),
-                  e.message.c_str());
+                  printable(e.message).c_str());
     }
 
     /// Queues an ERROR after which the connection closes (docs/protocol.md).
     void closingError(std::uint32_t request, ErrorCode code, const std::string& message) {
         ++server_.protocolErrors;
-        log().warn("%s: %s: %s; closing", name_.c_str(), errorName(code), message.c_str());
+        log().warn("%s: %s: %s; closing", name_.c_str(), errorName(code), printable(message).c_str());
         if (!reply(detail::errorAnswer(request, {code, message}).frame)) return;
         phase_ = Phase::Closing;
         closeAfterWrite_ = true;
@@ -392,6 +440,9 @@ private:
 
     Phase phase_{Phase::Open};
     bool hello_{false};
+    std::uint64_t warnings_{0};    ///< about this client's mistakes, logged or not
+    std::uint64_t suppressed_{0};  ///< not logged since the last summary
+    std::chrono::steady_clock::time_point lastSummary_{std::chrono::steady_clock::now()};
     std::uint16_t version_{kProtocolVersion};  ///< the session's, from its HELLO
     bool reading_{false};
     bool writing_{false};

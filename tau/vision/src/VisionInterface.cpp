@@ -32,8 +32,11 @@ namespace {
 
 log4cpp::Category& log() { return logging::category("vision"); }
 
-// How often the loop wakes when idle, so its heartbeat shows it is alive.
+// How often the loop wakes when idle.
 constexpr std::chrono::milliseconds kIdleTick{100};
+// The heartbeat's period: its own timer, so it ticks at 20 per second however
+// long an iteration takes (docs/protocol.md promises at least 10).
+constexpr std::chrono::milliseconds kHeartbeatPeriod{50};
 
 // The source errors of a configuration sent to applyConfig() name.
 constexpr const char* kSentSource = "sent configuration";
@@ -59,6 +62,7 @@ public:
                 recorderOptions);
         }
         thread_ = std::thread([this] { run(); });
+        heartbeat_ = std::thread([this] { beat(); });
     }
 
     ~Loop() {
@@ -67,7 +71,9 @@ public:
             stop_ = true;
         }
         wake_.notify_all();
+        beatWake_.notify_all();
         thread_.join();
+        heartbeat_.join();
         if (recorder_) recorder_->flush();
     }
 
@@ -251,10 +257,18 @@ private:
         return result;
     }
 
+    /// The heartbeat: ticks while the vision thread runs, whatever it is doing.
+    void beat() {
+        std::unique_lock<std::mutex> lock(mutex_);
+        while (!stop_ && visionRunning_) {
+            ++status_.heartbeat;
+            beatWake_.wait_for(lock, kHeartbeatPeriod, [this] { return stop_ || !visionRunning_; });
+        }
+    }
+
     void run() {
         std::unique_lock<std::mutex> lock(mutex_);
         while (!stop_) {
-            ++status_.heartbeat;
             while (!commands_.empty()) {
                 auto command = std::move(commands_.front());
                 commands_.pop_front();
@@ -276,6 +290,7 @@ private:
             // state that follows it (idle after a lone snapshot), never a stale one.
             try {
                 const VisionTargets result = iterate();
+                lastLoggedError_.clear();
                 lock.lock();
                 if (!searching_ && snapshots_.empty()) status_.state = VisionState::Idle;
                 for (auto& p : waiting) p.set_value(result);
@@ -284,7 +299,16 @@ private:
                 lock.lock();
                 status_.acquisition = backendStatus;
                 status_.error = e.what();
-                log().error("iteration failed: %s", e.what());
+                // A state change is logged once, at its level: the normal end of a
+                // replay is a notice, a failure an error; the same again is debug.
+                const bool finished = backendStatus.state == AcquisitionStatus::State::Finished;
+                if (status_.error == lastLoggedError_) {
+                    log().debug("iteration failed again: %s", e.what());
+                } else {
+                    log().log(finished ? log4cpp::Priority::NOTICE : log4cpp::Priority::ERROR, "%s: %s",
+                              finished ? "acquisition finished" : "iteration failed", e.what());
+                    lastLoggedError_ = status_.error;
+                }
                 if (backendStatus.state == AcquisitionStatus::State::Failed) {
                     status_.state = VisionState::Error;
                     searching_ = false;
@@ -300,6 +324,8 @@ private:
         }
         // Nobody will fulfil these any more.
         for (auto& p : snapshots_) p.set_exception(std::make_exception_ptr(InvalidState("vision interface stopped")));
+        visionRunning_ = false;
+        beatWake_.notify_all();
     }
 
     // Vision thread only.
@@ -308,12 +334,15 @@ private:
     const VisionOptions options_;
     std::string backendName_;
     std::uint32_t recordedVersion_{0};  ///< configuration version of the last recorded pair
+    std::string lastLoggedError_;       ///< the failure logged last (the same one is not logged again)
     std::unique_ptr<SessionRecorder> recorder_;  ///< thread-safe itself
 
     // Shared, guarded by mutex_.
     mutable std::mutex mutex_;
     std::condition_variable wake_;
+    std::condition_variable beatWake_;
     bool stop_{false};
+    bool visionRunning_{true};  ///< false once the vision thread has left its loop
     bool searching_{false};
     std::deque<std::packaged_task<std::uint32_t()>> commands_;
     std::vector<std::promise<VisionTargets>> snapshots_;
@@ -323,7 +352,8 @@ private:
     std::shared_ptr<const AnalysisFrame> frame_;
     VisionStatus status_;
 
-    std::thread thread_;  // last: starts after everything above exists
+    std::thread thread_;     // last: start after everything above exists
+    std::thread heartbeat_;
 };
 
 VisionInterface::VisionInterface(std::unique_ptr<AcquireStereoImagePair> backend, const AvatarConfig& config,

@@ -129,6 +129,7 @@ private:
     std::deque<Item> queue_;
     bool writing_{false};
     bool stop_{false};
+    bool losing_{false};  ///< the last pair was not recorded (its loss was logged)
     SessionRecorderStatus status_;
     std::map<std::uint32_t, std::shared_ptr<const std::string>> xmlByVersion_;  ///< record()'s side
 

@@ -39,7 +39,7 @@ const char* toString(VisionState state);
 struct VisionStatus {
     VisionState state{VisionState::Idle};
     std::string error;                   ///< why the state is Error (or the last error)
-    std::uint64_t heartbeat{0};          ///< increments on every turn of the vision loop
+    std::uint64_t heartbeat{0};          ///< increments 20 times a second while the vision thread runs (its own timer, not the iterations)
     std::uint64_t iteration{0};          ///< the last vision iteration analysed (0: none yet)
     std::uint64_t configIteration{0};    ///< iteration at which the configuration in force was applied
     std::uint32_t configVersion{1};      ///< increments with every configuration applied
