@@ -10,6 +10,7 @@
 #include <avatar/acquire/AcquireSIPSimulation.h>
 #include <avatar/tau/Protocol.h>
 #include <avatar/tau/TauNetServer.h>
+#include <avatar/tau/TauUnit.h>
 #include <avatar/tau/VisionInterface.h>
 
 #include <boost/asio/connect.hpp>
@@ -961,6 +962,110 @@ TEST(TauNet, PartialFramesAreClosedAfterTheIdleTimeout) {
     std::this_thread::sleep_for(600ms);
     EXPECT_EQ(quiet.request(kStatus, 2).type, 0x8009);
     EXPECT_EQ(d.server->stats().idleTimeouts, 2u);
+}
+
+// A slowloris trickling one byte at a time into a frame used to restart the
+// timer with every byte and was never closed: the deadline now runs from the
+// frame's first byte.
+TEST(TauNet, TricklingBytesDoNotExtendTheFrameDeadline) {
+    tau::TauNetOptions options;
+    options.idleTimeout = 600ms;
+    Daemon d(options);
+    Client c(d.port());
+    c.hello();
+    const Bytes big = frame(kSendConfig, 5, strPayload(std::string(100000, 'x')));
+    const auto start = std::chrono::steady_clock::now();
+    bool closed = false;
+    for (std::size_t i = 0; i < 40 && !closed; ++i) {  // 40 bytes over 4 s, well past the deadline
+        closed = !c.send(Bytes(big.begin() + static_cast<std::ptrdiff_t>(i), big.begin() + static_cast<std::ptrdiff_t>(i) + 1)) ||
+                 c.closedWithin(100ms);
+    }
+    const auto took = std::chrono::steady_clock::now() - start;
+    EXPECT_TRUE(closed);
+    EXPECT_GE(took, 550ms);
+    EXPECT_LT(took, 2500ms);
+    EXPECT_EQ(d.server->stats().idleTimeouts, 1u);
+}
+
+TEST(TauNet, AConnectionThatNeverSaysHelloIsClosed) {
+    tau::TauNetOptions options;
+    options.helloTimeout = 300ms;
+    Daemon d(options);
+    Client silent(d.port());
+    const auto start = std::chrono::steady_clock::now();
+    EXPECT_TRUE(silent.closedWithin(5s));
+    EXPECT_GE(std::chrono::steady_clock::now() - start, 250ms);
+    EXPECT_EQ(d.server->stats().helloTimeouts, 1u);
+    // One that says HELLO in time stays.
+    Client prompt(d.port());
+    prompt.hello();
+    std::this_thread::sleep_for(500ms);
+    EXPECT_EQ(prompt.request(kStatus, 2).type, 0x8009);
+}
+
+TEST(TauNet, AnIdleSessionIsClosedAndTauUnitConnectsAgain) {
+    tau::TauNetOptions options;
+    options.sessionIdleTimeout = 400ms;
+    Daemon d(options);
+    Client raw(d.port());
+    raw.hello();
+    EXPECT_EQ(raw.request(kStatus, 2).type, 0x8009);
+    const auto start = std::chrono::steady_clock::now();
+    EXPECT_TRUE(raw.closedWithin(5s));
+    EXPECT_GE(std::chrono::steady_clock::now() - start, 350ms);
+    EXPECT_EQ(d.server->stats().sessionTimeouts, 1u);
+
+    // TAUUnit: the request after the close fails (its contract: a lost
+    // connection is a ConnectionError), the next one connects again; with a
+    // retry policy the caller never sees it.
+    tau::TauUnitOptions uo;
+    uo.port = d.port();
+    tau::TauUnit unit(uo);
+    unit.status();
+    std::this_thread::sleep_for(800ms);  // the server closes the idle session meanwhile
+    EXPECT_THROW(unit.status(), tau::ConnectionError);
+    EXPECT_NO_THROW(unit.status());
+    uo.retry.attempts = 1;
+    uo.retry.delay = 10ms;
+    tau::TauUnit patient(uo);
+    patient.status();
+    std::this_thread::sleep_for(800ms);
+    EXPECT_NO_THROW(patient.status());
+    EXPECT_GE(d.server->stats().sessionTimeouts, 3u);
+}
+
+// 256 silent connections locked every other client out: at the limit the
+// silent (or else the idlest) connection makes room.
+TEST(TauNet, SilentOrIdleConnectionsCannotLockClientsOut) {
+    tau::TauNetOptions options;
+    options.maxConnections = 4;
+    options.evictAfter = 100ms;
+    Daemon d(options);
+    std::vector<std::unique_ptr<Client>> silent;
+    for (int i = 0; i < 4; ++i) silent.push_back(std::make_unique<Client>(d.port()));
+    ASSERT_TRUE(eventually([&] { return d.server->stats().connections == 4; }, 5s));
+    std::this_thread::sleep_for(200ms);
+    Client good(d.port());
+    good.hello();
+    EXPECT_EQ(good.request(kStatus, 2).type, 0x8009);
+    EXPECT_EQ(d.server->stats().evicted, 1u);
+    EXPECT_EQ(d.server->stats().rejected, 0u);
+
+    // With every connection said HELLO and idle, the idlest one goes.
+    std::vector<std::unique_ptr<Client>> idle;
+    silent.clear();
+    ASSERT_TRUE(eventually([&] { return d.server->stats().connections == 1; }, 5s));
+    for (int i = 0; i < 3; ++i) {
+        idle.push_back(std::make_unique<Client>(d.port()));
+        idle.back()->hello();
+    }
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(good.request(kStatus, 3).type, 0x8009);  // good is now the most recently active
+    Client late(d.port());
+    late.hello();
+    EXPECT_EQ(late.request(kStatus, 2).type, 0x8009);
+    EXPECT_EQ(d.server->stats().evicted, 2u);
+    EXPECT_EQ(good.request(kStatus, 4).type, 0x8009);  // not the one evicted
 }
 
 TEST(TauNet, AClientThatNeverReadsIsDisconnectedAndOthersAreServed) {

@@ -71,7 +71,9 @@ int main(int argc, char** argv) {
         ("max-clients", po::value<unsigned>()->default_value(256), "simultaneous connections")
         ("send-queue-mb", po::value<unsigned>()->default_value(256),
             "replies waiting for one client before it is disconnected, MiB")
-        ("idle-timeout", po::value<unsigned>()->default_value(30), "close a connection stuck in a partial frame after this many s")
+        ("idle-timeout", po::value<unsigned>()->default_value(30), "close a connection whose frame is not complete this many s after its first byte")
+        ("hello-timeout", po::value<unsigned>()->default_value(10), "close a connection that has not said HELLO after this many s")
+        ("session-timeout", po::value<unsigned>()->default_value(3600), "close a session without a request for this many s (0: never)")
         ("log", po::value<std::string>()->default_value("notice"), "log priority: debug, info, notice, warn, error")
         ("log-config", po::value<std::string>(), "log4cpp property file (instead of --log)");
     // clang-format on
@@ -120,6 +122,9 @@ int main(int argc, char** argv) {
         serverOptions.maxConnections = checkedRange<unsigned>(vm, "max-clients", 1, 100000);
         serverOptions.maxSendQueueBytes = std::size_t{checkedRange<unsigned>(vm, "send-queue-mb", 1, 4096)} << 20;
         serverOptions.idleTimeout = std::chrono::seconds(checkedRange<unsigned>(vm, "idle-timeout", 1, 86400));
+        serverOptions.helloTimeout = std::chrono::seconds(checkedRange<unsigned>(vm, "hello-timeout", 1, 3600));
+        serverOptions.sessionIdleTimeout =
+            std::chrono::seconds(checkedRange<unsigned>(vm, "session-timeout", 0, 7 * 86400));
         std::string why;
         if (!serverOptions.isValid(&why)) throw InvalidArgument(why);
 

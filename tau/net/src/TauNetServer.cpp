@@ -85,6 +85,9 @@ bool TauNetOptions::isValid(std::string* error) const {
     if (maxSendQueueBytes < 1024) return fail("maxSendQueueBytes must be at least 1024");
     if (maxConnections < 1) return fail("maxConnections must be at least 1");
     if (idleTimeout.count() <= 0) return fail("idleTimeout must be positive");
+    if (helloTimeout.count() <= 0) return fail("helloTimeout must be positive");
+    if (sessionIdleTimeout.count() < 0) return fail("sessionIdleTimeout must not be negative (0: never)");
+    if (evictAfter.count() < 0) return fail("evictAfter must not be negative");
     if (lingerTimeout.count() < 0) return fail("lingerTimeout must not be negative");
     if (serverName.empty()) return fail("serverName is empty");
     return true;
@@ -101,6 +104,8 @@ public:
     void stop();
     void wait();
     void remove(std::uint64_t id);
+    /// At the connection limit: the connection to close for a new one, or null (mutex held).
+    std::shared_ptr<Connection> evictionCandidate();
 
     VisionInterface& vision;
     const TauNetOptions options;
@@ -124,7 +129,7 @@ public:
     std::map<std::uint64_t, std::weak_ptr<Connection>> connections;
 
     std::atomic<std::uint64_t> accepted{0}, rejected{0}, requests{0}, protocolErrors{0}, slowClients{0},
-        idleTimeouts{0};
+        idleTimeouts{0}, helloTimeouts{0}, sessionTimeouts{0}, evicted{0};
 };
 
 /// One client. Every member is touched only on the connection's strand
@@ -143,6 +148,7 @@ public:
         : server_(server),
           socket_(std::move(socket)),
           timer_(socket_.get_executor()),
+          sessionTimer_(socket_.get_executor()),
           decoder_(kMaxRequestPayload),
           id_(id) {
         error_code ec;
@@ -155,8 +161,15 @@ public:
     void start() {
         if (phase_ == Phase::Closed) return;
         log().info("%s connected", name_.c_str());
+        touch();
+        armSessionTimer(server_.options.helloTimeout, SessionTimer::Hello);
         read();
     }
+
+    /// For the eviction choice (read from the accept handler, hence atomic).
+    bool saidHello() const { return helloSeen_; }
+    bool quiet() const { return quiet_; }
+    std::int64_t lastActivityNs() const { return lastActivityNs_; }
 
     /// Closes at once; replies not yet written are dropped.
     void close(const std::string& why) {
@@ -166,6 +179,7 @@ public:
         socket_.shutdown(tcp::socket::shutdown_both, ec);
         socket_.close(ec);
         timer_.cancel();
+        sessionTimer_.cancel();
         server_.remove(id_);
         summariseWarnings();
         log().info("%s disconnected: %s", name_.c_str(), why.c_str());
@@ -236,9 +250,18 @@ private:
     void resume() {
         process();
         if (phase_ == Phase::Open) {
-            if (decoder_.buffered() > 0 && !busy_) armTimer(server_.options.idleTimeout, TimerPurpose::Idle);
-            else cancelTimer();
+            // The deadline runs from the frame's first byte: bytes trickling in do not extend it.
+            if (decoder_.buffered() > 0 && !busy_) {
+                if (!frameTimerArmed_ || frameTimerFrame_ != framesTaken_) {
+                    armTimer(server_.options.idleTimeout, TimerPurpose::Idle);
+                    frameTimerArmed_ = true;
+                    frameTimerFrame_ = framesTaken_;
+                }
+            } else {
+                cancelTimer();
+            }
         }
+        quiet_ = decoder_.buffered() == 0 && !busy_;
         read();
     }
 
@@ -258,6 +281,8 @@ private:
 
     void dispatch(Frame frame) {
         ++server_.requests;
+        ++framesTaken_;
+        touch();
         const std::uint16_t type = frame.header.type;
         const std::uint32_t id = frame.header.request;
         if (!hello_ && type != static_cast<std::uint16_t>(MessageType::Hello))
@@ -283,6 +308,7 @@ private:
 
         // Blocking: answered on the worker pool; the reply comes back to this strand.
         busy_ = true;
+        quiet_ = false;
         cancelTimer();
         auto request = std::make_shared<Frame>(std::move(frame));
         asio::post(server_.workers, [self = shared_from_this(), request] {
@@ -320,6 +346,7 @@ private:
             log().info("%s is '%s' (protocol version %u)", name_.c_str(), printable(m.clientName).c_str(),
                        static_cast<unsigned>(m.version));
         hello_ = true;
+        helloSeen_ = true;
         version_ = m.version;
         reply(server_.handler.helloReply(id, version_));
     }
@@ -427,12 +454,46 @@ private:
 
     void cancelTimer() {
         ++timerGeneration_;
+        frameTimerArmed_ = false;
         timer_.cancel();
+    }
+
+    // The session's own timer: HELLO until it is received, then idleness.
+    enum class SessionTimer { Hello, Idle };
+
+    /// A request arrived (or the connection opened): the session is not idle.
+    void touch() {
+        lastActivityNs_ = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                              std::chrono::steady_clock::now().time_since_epoch())
+                              .count();
+        if (hello_ && server_.options.sessionIdleTimeout.count() > 0)
+            armSessionTimer(server_.options.sessionIdleTimeout, SessionTimer::Idle);
+    }
+
+    void armSessionTimer(std::chrono::milliseconds after, SessionTimer purpose) {
+        const std::uint64_t generation = ++sessionGeneration_;
+        sessionTimer_.expires_after(after);
+        sessionTimer_.async_wait([self = shared_from_this(), generation, purpose, after](const error_code& ec) {
+            if (ec || generation != self->sessionGeneration_ || self->phase_ != Phase::Open) return;
+            if (purpose == SessionTimer::Hello) {
+                if (self->hello_) return;
+                ++self->server_.helloTimeouts;
+                log().warn("%s: no HELLO within %lld ms; closing", self->name_.c_str(),
+                           static_cast<long long>(after.count()));
+                return self->close("no HELLO in time");
+            }
+            if (self->busy_) return self->armSessionTimer(after, purpose);  // a request is being answered
+            ++self->server_.sessionTimeouts;
+            log().info("%s: no request for %lld ms; closing the idle session", self->name_.c_str(),
+                       static_cast<long long>(after.count()));
+            self->close("idle session");
+        });
     }
 
     ServerCore& server_;
     tcp::socket socket_;
     asio::steady_timer timer_;
+    asio::steady_timer sessionTimer_;
     FrameDecoder decoder_;
     std::uint64_t id_;
     std::string name_;
@@ -450,6 +511,13 @@ private:
     bool peerEof_{false};
     bool closeAfterWrite_{false};
     std::uint64_t timerGeneration_{0};
+    std::uint64_t sessionGeneration_{0};
+    bool frameTimerArmed_{false};
+    std::uint64_t framesTaken_{0};      ///< frames taken out of the decoder so far
+    std::uint64_t frameTimerFrame_{0};  ///< framesTaken_ when the frame timer was armed
+    std::atomic<bool> helloSeen_{false};
+    std::atomic<bool> quiet_{true};     ///< no partial frame, no request in progress
+    std::atomic<std::int64_t> lastActivityNs_{0};
     std::deque<std::vector<std::uint8_t>> sendQueue_;
     std::size_t queuedBytes_{0};
 };
@@ -518,9 +586,21 @@ void ServerCore::accept() {
         {
             std::lock_guard<std::mutex> lock(mutex);
             if (stopping) return;  // the socket closes as it goes out of scope
+            std::shared_ptr<Connection> evict;
+            if (connections.size() >= options.maxConnections) evict = evictionCandidate();
+            if (evict) {
+                ++evicted;
+                log().warn("%zu clients (the limit): a connection %s makes room for a new one", connections.size(),
+                           evict->saidHello() ? "idle the longest" : "that has not said HELLO");
+                asio::post(evict->executor(), [evict] { evict->close("evicted to make room (the connection limit)"); });
+                connections.erase(std::find_if(connections.begin(), connections.end(), [&](const auto& entry) {
+                                      return entry.second.lock() == evict;
+                                  }));
+            }
             if (connections.size() >= options.maxConnections) {
                 ++rejected;
-                log().warn("connection refused: already %zu clients (the limit)", connections.size());
+                log().warn("connection refused: already %zu clients (the limit), none silent or idle to evict",
+                           connections.size());
             } else {
                 error_code ignored;
                 socket.set_option(tcp::no_delay(true), ignored);
@@ -532,6 +612,30 @@ void ServerCore::accept() {
         if (connection) asio::dispatch(connection->executor(), [connection] { connection->start(); });
         accept();
     });
+}
+
+std::shared_ptr<Connection> ServerCore::evictionCandidate() {
+    const std::int64_t now =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+            .count();
+    const std::int64_t minIdle = std::chrono::duration_cast<std::chrono::nanoseconds>(options.evictAfter).count();
+    std::shared_ptr<Connection> silent, idlest;
+    std::int64_t silentSince = now, idlestSince = now;
+    for (const auto& [id, weak] : connections) {
+        const std::shared_ptr<Connection> c = weak.lock();
+        if (!c) continue;
+        const std::int64_t since = c->lastActivityNs();
+        if (!c->saidHello()) {
+            if (now - since >= minIdle && since <= silentSince) {
+                silent = c;
+                silentSince = since;
+            }
+        } else if (c->quiet() && now - since >= minIdle && since <= idlestSince) {
+            idlest = c;
+            idlestSince = since;
+        }
+    }
+    return silent ? silent : idlest;
 }
 
 void ServerCore::remove(std::uint64_t id) {
@@ -612,6 +716,9 @@ TauNetStats TauNetServer::stats() const {
     s.protocolErrors = impl_->protocolErrors;
     s.slowClients = impl_->slowClients;
     s.idleTimeouts = impl_->idleTimeouts;
+    s.helloTimeouts = impl_->helloTimeouts;
+    s.sessionTimeouts = impl_->sessionTimeouts;
+    s.evicted = impl_->evicted;
     return s;
 }
 

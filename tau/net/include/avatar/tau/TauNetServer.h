@@ -15,8 +15,11 @@
 /// (a blocking request holds back that connection's later requests, never
 /// another connection's). Limits per connection: requests of at most
 /// kMaxRequestPayload bytes; at most maxSendQueueBytes of replies waiting for
-/// a client that does not read (beyond that it is disconnected); a partial
-/// frame that is not completed within idleTimeout closes the connection.
+/// a client that does not read (beyond that it is disconnected); a frame not
+/// completed within idleTimeout of its first byte, a HELLO not received
+/// within helloTimeout and a session without a request for
+/// sessionIdleTimeout close the connection; at maxConnections the silent or
+/// idlest connection makes room for a new one.
 ///
 /// Error policy: construction throws avatar::InvalidArgument (bad options) or
 /// avatar::IoError (the address cannot be bound). Once running, nothing a
@@ -55,8 +58,20 @@ struct TauNetOptions {
     std::size_t maxSendQueueBytes{std::size_t{256} << 20};
     /// Simultaneous connections; further ones are accepted and closed at once.
     std::size_t maxConnections{256};
-    /// A connection holding a partial frame with no new byte for this long is closed.
+    /// A frame must be complete this long after its first byte, or the
+    /// connection is closed (a client trickling bytes gains nothing).
     std::chrono::milliseconds idleTimeout{std::chrono::seconds(30)};
+    /// A connection that has not completed HELLO this long after it opened is closed.
+    std::chrono::milliseconds helloTimeout{std::chrono::seconds(10)};
+    /// A session with no request for this long is closed (0: never). A TAUUnit
+    /// client's next request fails and the one after connects again (or its
+    /// RetryPolicy reconnects at once).
+    std::chrono::milliseconds sessionIdleTimeout{std::chrono::hours(1)};
+    /// When maxConnections are open, a new connection evicts the one that has
+    /// not said HELLO, or else the one idle longest (at least evictAfter
+    /// without a request and none in progress); only when none qualifies is
+    /// the new one refused. So silent connections cannot lock clients out.
+    std::chrono::milliseconds evictAfter{std::chrono::seconds(2)};
     /// After a closing ERROR, how long the server keeps reading (and discarding)
     /// so the client receives the ERROR before the close.
     std::chrono::milliseconds lingerTimeout{std::chrono::seconds(2)};
@@ -74,7 +89,10 @@ struct TauNetStats {
     std::uint64_t requests{0};          ///< frames received and answered or being answered
     std::uint64_t protocolErrors{0};    ///< MALFORMED_FRAME .. BAD_PAYLOAD answered
     std::uint64_t slowClients{0};       ///< disconnected: send queue over the limit
-    std::uint64_t idleTimeouts{0};      ///< disconnected: partial frame not completed
+    std::uint64_t idleTimeouts{0};      ///< disconnected: partial frame not completed in time
+    std::uint64_t helloTimeouts{0};     ///< disconnected: no HELLO in time
+    std::uint64_t sessionTimeouts{0};   ///< disconnected: no request for sessionIdleTimeout
+    std::uint64_t evicted{0};           ///< disconnected to make room at maxConnections
 };
 
 class TauNetServer {
