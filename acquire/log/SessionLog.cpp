@@ -179,6 +179,33 @@ SessionLogReader::SessionLogReader(fs::path sessionDirectory)
         entries_.push_back(std::move(entry));
     }
 
+    // Iterations increase and pairs are acquired in order: a record that
+    // repeats or goes back (a duplicated line, two lines swapped) is damage.
+    const SessionRecord* previous = nullptr;
+    std::size_t previousLine = 0;
+    for (auto& e : entries_) {
+        if (!e.ok()) continue;
+        const SessionRecord& r = *e.record;
+        std::string problem;
+        if (previous && r.iteration <= previous->iteration) {
+            problem = "iteration " + std::to_string(r.iteration) + " does not follow iteration " +
+                      std::to_string(previous->iteration) + " of line " + std::to_string(previousLine) +
+                      " (a record repeated or out of order)";
+        } else if (previous && r.acquisition.left.timestampUs > 0 && previous->acquisition.left.timestampUs > 0 &&
+                   r.acquisition.left.timestampUs < previous->acquisition.left.timestampUs) {
+            problem = "its pair was acquired " +
+                      std::to_string(previous->acquisition.left.timestampUs - r.acquisition.left.timestampUs) +
+                      " us before that of line " + std::to_string(previousLine) + " (a record out of order)";
+        }
+        if (!problem.empty()) {
+            e.error = prefix + std::to_string(e.line) + ": " + problem;
+            e.record.reset();
+            continue;
+        }
+        previous = &*e.record;
+        previousLine = e.line;
+    }
+
     std::size_t damaged = 0;
     for (const auto& e : entries_) damaged += e.ok() ? 0 : 1;
     if (damaged > 0)

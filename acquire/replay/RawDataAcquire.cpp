@@ -34,10 +34,17 @@ RecordedConfig RawDataAcquire::initialConfig() const {
                            " has no intact record to take the configuration from");
     const std::uint32_t version = records.front().configVersion;
     const auto xml = reader_.configXml(version);
-    if (!xml)
+    if (!xml) {
+        // Say why: the record that applied it is most likely a damaged one before.
+        std::string why;
+        for (const SessionLogEntry& entry : reader_.entries()) {
+            if (entry.ok()) break;
+            why += "; damaged before it: " + entry.error;
+        }
         throw NotAvailable("session " + reader_.directory().string() + " does not hold configuration " +
                            std::to_string(version) + " of its first intact record (" + reader_.logPath().string() +
-                           ":" + std::to_string(firstIntactLine()) + ")");
+                           ":" + std::to_string(firstIntactLine()) + ")" + why);
+    }
     return {readConfigString(*xml, configSource(version)), version, configSource(version)};
 }
 

@@ -5,6 +5,7 @@
 #include "TempDir.h"
 #include "TestUtil.h"
 
+#include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/acquire/SessionLog.h>
 #include <avatar/common/Error.h>
 
@@ -164,6 +165,44 @@ TEST_F(DamagedSession, LineChecksumMismatch) {
     EXPECT_EQ(reportForLine3(), prefix + "3: line checksum mismatch: recorded " +
                                     changed.substr(changed.size() - 8) + ", computed " +
                                     hex8(crc32(body.data(), body.size())) + " (the line was altered or damaged)");
+}
+
+// Lines with intact checksums in the wrong order: iterations and acquisition
+// times must increase, or the replay would serve iteration 2 after 3.
+TEST_F(DamagedSession, ADuplicatedRecordIsDamage) {
+    writeText(log, lines[0] + "\n" + lines[1] + "\n" + lines[2] + "\n" + lines[2] + "\n" + lines[3] + "\n");
+    const SessionLogReader reader(dir.path());
+    ASSERT_EQ(reader.entries().size(), 4u);
+    EXPECT_EQ(reader.errors(), std::vector<std::string>{prefix + "4: iteration 2 does not follow iteration 2 of line 3 "
+                                                                 "(a record repeated or out of order)"});
+    ASSERT_EQ(reader.records().size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) expectSameRecord(reader.records()[i], records[i]);
+}
+
+TEST_F(DamagedSession, TwoSwappedRecordsAreDamage) {
+    writeText(log, lines[0] + "\n" + lines[1] + "\n" + lines[3] + "\n" + lines[2] + "\n");
+    const SessionLogReader reader(dir.path());
+    EXPECT_EQ(reader.errors(), std::vector<std::string>{prefix + "4: iteration 2 does not follow iteration 3 of line 3 "
+                                                                 "(a record repeated or out of order)"});
+    ASSERT_EQ(reader.records().size(), 2u);
+    EXPECT_EQ(reader.records()[0].iteration, 1u);
+    EXPECT_EQ(reader.records()[1].iteration, 3u);
+}
+
+TEST_F(DamagedSession, AFirstRecordDamagedIsNamedWhenItsConfigurationIsMissing) {
+    const std::string changed = replaceOnce(lines[1], "leftTimeUs=1000", "leftTimeUs=1001");
+    setLine(2, changed + "\n");
+    const RawDataAcquire replay(dir.path());
+    try {
+        replay.initialConfig();
+        ADD_FAILURE() << "no error";
+    } catch (const NotAvailable& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("does not hold configuration 1 of its first intact record (" + prefix + "3)"),
+                  std::string::npos)
+            << what;
+        EXPECT_NE(what.find("damaged before it: " + prefix + "2: line checksum mismatch"), std::string::npos) << what;
+    }
 }
 
 TEST_F(DamagedSession, MissingLineChecksum) {
