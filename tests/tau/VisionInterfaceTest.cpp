@@ -2,6 +2,7 @@
 // analysis, real threads.
 
 #include "SphereScene.h"
+#include "TempDir.h"
 
 #include <avatar/acquire/RawDataAcquire.h>
 #include <avatar/acquire/SessionLog.h>
@@ -14,6 +15,7 @@
 #include <opencv2/core.hpp>
 
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include <unistd.h>
@@ -187,13 +189,49 @@ TEST(VisionInterface, SentConfigurationsThatCannotBeAppliedAreConfigErrors) {
         vision.applyConfig(writeConfigString(lamp));
         ADD_FAILURE() << "applied";
     } catch (const ConfigError& e) {
-        EXPECT_EQ(e.elementPath(), "/avatar/analysis");
+        EXPECT_EQ(e.elementPath(), "/avatar/lighting/pattern/templateImage");
         EXPECT_NE(e.problem().find("/nonexistent/strobe-template.tif"), std::string::npos) << e.what();
     }
     EXPECT_EQ(vision.config(), test::sphereSceneConfig());
     EXPECT_EQ(vision.status().configVersion, 1u);
     // The interface is still whole: it analyses with the old configuration.
     EXPECT_EQ(vision.snapshot().ofType("sample").size(), 1u);
+}
+
+// A client that sends configurations cannot learn which files exist on the
+// vision computer: a template outside the data directory, missing, a device
+// or unreadable is refused with one message; one inside that is not an image
+// is refused when the analysis is built.
+TEST(VisionInterface, SentLightingTemplatesStayInTheDataDirectoryAndTellNothing) {
+    const test::TempDir data;
+    std::filesystem::create_directories(data.path() / "sub");
+    { std::ofstream(data.path() / "sub" / "junk.tif") << "not an image"; }
+    VisionOptions options;
+    options.configDirectory = data.path();
+    VisionInterface vision(test::sphereSimulation(), test::sphereSceneConfig(), options);
+    const auto refusal = [&](const std::string& path) {
+        AvatarConfig c = test::sphereSceneConfig();
+        c.lighting.patternEnabled = true;
+        c.lighting.templateImagePath = path;
+        try {
+            vision.applyConfig(writeConfigString(c));
+        } catch (const ConfigError& e) {
+            return e.elementPath() + ": " + e.problem();
+        }
+        return std::string("applied");
+    };
+    const auto expected = [](const std::string& path) {
+        return "/avatar/lighting/pattern/templateImage: cannot be used: '" + path +
+               "' is not a readable lighting template in the data directory";
+    };
+    for (const std::string path : {"/etc/passwd", "/etc/no-such-file", "/dev/zero", "../outside.tif", "missing.tif",
+                                   "sub", "sub/../../x.tif"}) {
+        EXPECT_EQ(refusal(path), expected(path)) << path;
+    }
+    // Inside and a file: it is read, and its contents are what is wrong.
+    const std::string inside = refusal("sub/junk.tif");
+    EXPECT_EQ(inside.rfind("/avatar/analysis: cannot be applied: ", 0), 0u) << inside;
+    EXPECT_EQ(vision.status().configVersion, 1u);
 }
 
 TEST(VisionInterface, FailuresAreTypedByKind) {

@@ -7,14 +7,18 @@
 
 #include <log4cpp/Category.hh>
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <filesystem>
 #include <functional>
 #include <future>
 #include <mutex>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
 
 namespace avatar {
 
@@ -187,6 +191,32 @@ private:
     };
 
     /// Applies a configuration to the backend and the analysis, all or nothing.
+    /// A sent configuration may name a lighting template only inside the data
+    /// directory (VisionOptions::configDirectory), and whatever is wrong with
+    /// it the client hears one message: no client can probe which files exist
+    /// on the vision computer. The reason is logged here.
+    void checkSentTemplate(const LightingConfig& lighting) const {
+        if (!lighting.patternEnabled || lighting.templateImagePath.empty()) return;
+        namespace fs = std::filesystem;
+        std::error_code ec;
+        const fs::path base = fs::weakly_canonical(
+            options_.configDirectory.empty() ? fs::current_path(ec) : options_.configDirectory, ec);
+        fs::path path = lighting.templateImagePath;
+        if (path.is_relative()) path = base / path;
+        const fs::path resolved = fs::weakly_canonical(path, ec);
+        std::string why;
+        const auto [end, ignored] = std::mismatch(base.begin(), base.end(), resolved.begin(), resolved.end());
+        if (ec || end != base.end()) why = "outside the data directory " + base.string();
+        else if (!fs::is_regular_file(resolved, ec)) why = "not a regular file";
+        else if (::access(resolved.c_str(), R_OK) != 0) why = "not readable";
+        if (why.empty()) return;  // its contents are checked when the analysis is built
+        log().info("sent configuration refused: lighting template '%s' (%s) is %s",
+                   lighting.templateImagePath.c_str(), resolved.c_str(), why.c_str());
+        throw ConfigError(kSentSource, 0, "/avatar/lighting/pattern/templateImage",
+                          "cannot be used: '" + lighting.templateImagePath +
+                              "' is not a readable lighting template in the data directory");
+    }
+
     /// With Rejection::AsConfigError an analysis that cannot be built from it
     /// (a stage order, a lighting template that cannot be read) and a backend
     /// that cannot use it (InvalidArgument) are ConfigErrors of the sent
@@ -197,6 +227,7 @@ private:
             if (rejection == Rejection::AsThrown || dynamic_cast<const ConfigError*>(&e)) throw;
             throw ConfigError(kSentSource, 0, part, std::string("cannot be applied: ") + e.what());
         };
+        if (rejection == Rejection::AsConfigError) checkSentTemplate(config.lighting);
         std::unique_ptr<AnalyzeStereoImagePair> analyzer;
         try {
             analyzer = std::make_unique<AnalyzeStereoImagePair>(config, options_.configDirectory);
