@@ -1068,6 +1068,47 @@ TEST(TauNet, SilentOrIdleConnectionsCannotLockClientsOut) {
     EXPECT_EQ(good.request(kStatus, 4).type, 0x8009);  // not the one evicted
 }
 
+// Six clients asking for images and never reading held 1.5 GB: the budget of
+// all clients together disconnects the one with the most waiting, and a
+// client that reads is served throughout.
+TEST(TauNet, TheSendBudgetOfAllClientsDisconnectsTheWorstOffender) {
+    tau::TauNetOptions options;
+    options.maxSendQueueBytes = 64u << 20;       // no single client reaches its own limit
+    options.maxTotalSendQueueBytes = 2u << 20;   // but together they reach this
+    Daemon d(options);
+    Client good(d.port());
+    good.hello();
+    std::vector<std::unique_ptr<Client>> greedy;
+    for (int i = 0; i < 3; ++i) {
+        greedy.push_back(std::make_unique<Client>(d.port()));
+        greedy.back()->hello();
+    }
+    Bytes burst;
+    for (std::uint32_t i = 0; i < 2000; ++i) {
+        const Bytes f = frame(kGetConfig, i);
+        burst.insert(burst.end(), f.begin(), f.end());
+    }
+    std::atomic<bool> stop{false};
+    std::vector<std::thread> writers;
+    for (auto& g : greedy)
+        writers.emplace_back([&, c = g.get()] {
+            const auto until = std::chrono::steady_clock::now() + 20s;
+            while (!stop && std::chrono::steady_clock::now() < until)
+                if (!c->send(burst)) break;
+        });
+    bool served = true;
+    std::uint32_t id = 1;
+    const auto until = std::chrono::steady_clock::now() + 20s;
+    while (served && d.server->stats().slowClients < 3 && std::chrono::steady_clock::now() < until)
+        served = good.request(kStatus, id++).type == 0x8009;
+    stop = true;
+    for (auto& w : writers) w.join();
+    EXPECT_TRUE(served);
+    EXPECT_EQ(d.server->stats().slowClients, 3u);  // each greedy one, in turn the worst
+    EXPECT_EQ(good.request(kStatus, id).type, 0x8009);
+    EXPECT_TRUE(eventually([&] { return d.server->stats().connections == 1; }, 10s));
+}
+
 TEST(TauNet, AClientThatNeverReadsIsDisconnectedAndOthersAreServed) {
     tau::TauNetOptions options;
     options.maxSendQueueBytes = 256 * 1024;

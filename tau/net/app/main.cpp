@@ -71,6 +71,8 @@ int main(int argc, char** argv) {
         ("max-clients", po::value<unsigned>()->default_value(256), "simultaneous connections")
         ("send-queue-mb", po::value<unsigned>()->default_value(256),
             "replies waiting for one client before it is disconnected, MiB")
+        ("send-budget-mb", po::value<unsigned>()->default_value(512),
+            "replies that may wait for all clients together, MiB; beyond it the client with the most waiting is disconnected")
         ("idle-timeout", po::value<unsigned>()->default_value(30), "close a connection whose frame is not complete this many s after its first byte")
         ("hello-timeout", po::value<unsigned>()->default_value(10), "close a connection that has not said HELLO after this many s")
         ("session-timeout", po::value<unsigned>()->default_value(3600), "close a session without a request for this many s (0: never)")
@@ -121,6 +123,7 @@ int main(int argc, char** argv) {
         serverOptions.workerThreads = checkedRange<unsigned>(vm, "workers", 1, 64);
         serverOptions.maxConnections = checkedRange<unsigned>(vm, "max-clients", 1, 100000);
         serverOptions.maxSendQueueBytes = std::size_t{checkedRange<unsigned>(vm, "send-queue-mb", 1, 4096)} << 20;
+        serverOptions.maxTotalSendQueueBytes = std::size_t{checkedRange<unsigned>(vm, "send-budget-mb", 1, 65536)} << 20;
         serverOptions.idleTimeout = std::chrono::seconds(checkedRange<unsigned>(vm, "idle-timeout", 1, 86400));
         serverOptions.helloTimeout = std::chrono::seconds(checkedRange<unsigned>(vm, "hello-timeout", 1, 3600));
         serverOptions.sessionIdleTimeout =

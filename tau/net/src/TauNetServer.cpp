@@ -83,6 +83,7 @@ bool TauNetOptions::isValid(std::string* error) const {
     if (networkThreads < 1 || networkThreads > 64) return fail("networkThreads must be 1..64");
     if (workerThreads < 1 || workerThreads > 64) return fail("workerThreads must be 1..64");
     if (maxSendQueueBytes < 1024) return fail("maxSendQueueBytes must be at least 1024");
+    if (maxTotalSendQueueBytes < 1024) return fail("maxTotalSendQueueBytes must be at least 1024");
     if (maxConnections < 1) return fail("maxConnections must be at least 1");
     if (idleTimeout.count() <= 0) return fail("idleTimeout must be positive");
     if (helloTimeout.count() <= 0) return fail("helloTimeout must be positive");
@@ -106,6 +107,9 @@ public:
     void remove(std::uint64_t id);
     /// At the connection limit: the connection to close for a new one, or null (mutex held).
     std::shared_ptr<Connection> evictionCandidate();
+    /// The connection with the most replies waiting, or null (takes the mutex).
+    std::shared_ptr<Connection> worstOffender();
+    std::atomic<std::size_t> totalQueued{0};  ///< replies waiting, all connections
 
     VisionInterface& vision;
     const TauNetOptions options;
@@ -169,6 +173,7 @@ public:
     /// For the eviction choice (read from the accept handler, hence atomic).
     bool saidHello() const { return helloSeen_; }
     bool quiet() const { return quiet_; }
+    std::size_t queued() const { return queuedShared_; }
     std::int64_t lastActivityNs() const { return lastActivityNs_; }
 
     /// Closes at once; replies not yet written are dropped.
@@ -180,6 +185,10 @@ public:
         socket_.close(ec);
         timer_.cancel();
         sessionTimer_.cancel();
+        server_.totalQueued -= queuedBytes_;  // dropped with the connection
+        queuedBytes_ = 0;
+        queuedShared_ = 0;
+        sendQueue_.clear();
         server_.remove(id_);
         summariseWarnings();
         log().info("%s disconnected: %s", name_.c_str(), why.c_str());
@@ -388,7 +397,29 @@ private:
             close("send queue over its limit (the client does not read)");
             return false;
         }
+        if (server_.totalQueued + frame.size() > server_.options.maxTotalSendQueueBytes) {
+            // Over the budget of all clients: the one with the most waiting goes.
+            std::shared_ptr<Connection> worst = server_.worstOffender();
+            if (!worst || worst.get() == this) {
+                if (queuedBytes_ > 0) {
+                    ++server_.slowClients;
+                    log().warn("%s has the most replies waiting (%zu bytes) when all clients' %zu bytes would exceed "
+                               "the budget of %zu; closing", name_.c_str(), queuedBytes_,
+                               static_cast<std::size_t>(server_.totalQueued),
+                               server_.options.maxTotalSendQueueBytes);
+                    close("the send budget of all clients is exhausted and this client has the most waiting");
+                    return false;
+                }
+            } else {
+                ++server_.slowClients;
+                asio::post(worst->executor(), [worst] {
+                    worst->close("the send budget of all clients is exhausted and this client has the most waiting");
+                });
+            }
+        }
         queuedBytes_ += frame.size();
+        queuedShared_ = queuedBytes_;
+        server_.totalQueued += frame.size();
         sendQueue_.push_back(std::move(frame));
         write();
         return true;
@@ -413,6 +444,8 @@ private:
         if (ec) return close("write failed: " + ec.message());
         for (std::size_t i = 0; i < count; ++i) sendQueue_.pop_front();
         queuedBytes_ -= n;
+        queuedShared_ = queuedBytes_;
+        server_.totalQueued -= n;
         if (closeAfterWrite_ && sendQueue_.empty()) return drain();
         write();
         finishIfDone();
@@ -520,6 +553,7 @@ private:
     std::atomic<std::int64_t> lastActivityNs_{0};
     std::deque<std::vector<std::uint8_t>> sendQueue_;
     std::size_t queuedBytes_{0};
+    std::atomic<std::size_t> queuedShared_{0};  ///< queuedBytes_ for worstOffender()
 };
 
 // ---- the server -----------------------------------------------------------
@@ -636,6 +670,20 @@ std::shared_ptr<Connection> ServerCore::evictionCandidate() {
         }
     }
     return silent ? silent : idlest;
+}
+
+std::shared_ptr<Connection> ServerCore::worstOffender() {
+    std::lock_guard<std::mutex> lock(mutex);
+    std::shared_ptr<Connection> worst;
+    std::size_t most = 0;
+    for (const auto& [id, weak] : connections) {
+        const std::shared_ptr<Connection> c = weak.lock();
+        if (c && c->queued() > most) {
+            most = c->queued();
+            worst = c;
+        }
+    }
+    return worst;
 }
 
 void ServerCore::remove(std::uint64_t id) {

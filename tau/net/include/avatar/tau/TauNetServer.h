@@ -56,6 +56,10 @@ struct TauNetOptions {
     /// up (it does not read) is disconnected. One reply is always accepted into
     /// an empty queue, so a single image reply larger than this still goes out.
     std::size_t maxSendQueueBytes{std::size_t{256} << 20};
+    /// Replies waiting for all clients together, in bytes. When a reply would
+    /// exceed it, the client with the most waiting is disconnected (a client
+    /// whose queue is empty still gets its one reply).
+    std::size_t maxTotalSendQueueBytes{std::size_t{512} << 20};
     /// Simultaneous connections; further ones are accepted and closed at once.
     std::size_t maxConnections{256};
     /// A frame must be complete this long after its first byte, or the
