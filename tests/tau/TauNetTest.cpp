@@ -510,6 +510,25 @@ TEST(TauNet, UnknownMessagesAreAnsweredAndTheConnectionKept) {
     EXPECT_EQ(c.request(kStatus, 104).type, 0x8009);
 }
 
+// docs/protocol.md: after a HELLO that does not decode the session is not
+// open, even on a session that was: the next frame must be HELLO again.
+TEST(TauNet, AHelloThatDoesNotDecodeClosesAnOpenSession) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    EXPECT_EQ(c.request(kStatus, 2).type, 0x8009);
+    Bytes shortHello;
+    put16(shortHello, 2);
+    put32(shortHello, 50);  // a 50-byte name that is not there
+    RawFrame f = c.request(kHello, 3, shortHello);
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(errorCode(f), 6);
+    f = c.request(kStatus, 4);
+    EXPECT_EQ(f.type, 0xFFFF);
+    EXPECT_EQ(errorCode(f), 3);  // HELLO_REQUIRED, and the connection closes
+    EXPECT_TRUE(c.closedWithin(5s));
+}
+
 TEST(TauNet, BadPayloadsAreAnsweredAndTheConnectionKept) {
     Daemon d;
     Client c(d.port());
@@ -1441,6 +1460,23 @@ TEST(TauNetDaemon, TheEndOfAReplayIsLoggedOnceAsANotice) {
         ++notices;
     EXPECT_EQ(notices, 1u) << log;
     EXPECT_EQ(log.find(" ERROR "), std::string::npos) << log;
+}
+
+// ::ffff:127.0.0.1 is loopback: no warning that the daemon is exposed.
+TEST(TauNetDaemon, AnIpv4LoopbackMappedIntoIpv6IsLoopback) {
+    const std::string errPath = ::testing::TempDir() + "taunet_mapped.log";
+    Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
+                               "--listen", "::ffff:127.0.0.1", "--port", "0", "--log", "info"},
+                              errPath);
+    std::string out;
+    const auto m = readUntil(child.out, std::regex(R"(listening on \[::ffff:127\.0\.0\.1\]:([0-9]+)\n)"), out, 30s);
+    ::kill(child.pid, SIGTERM);
+    waitExit(child.pid, 15s);
+    ::close(child.out);
+    const std::string log = slurp(errPath);
+    if (!m && log.find("cannot listen") != std::string::npos) GTEST_SKIP() << "no IPv6 here: " << log;
+    ASSERT_TRUE(m) << "stdout: " << out << "\nstderr: " << log;
+    EXPECT_EQ(log.find("reachable from other machines"), std::string::npos) << log;
 }
 
 TEST(TauNetDaemon, BackendThatCannotStartIsAClearError) {

@@ -63,6 +63,14 @@ std::string printable(const std::string& text) {
 constexpr std::uint64_t kWarningBurst = 10;
 constexpr std::chrono::seconds kWarningSummaryPeriod{10};
 
+/// Loopback, including an IPv4 loopback address mapped into IPv6 (::ffff:127.0.0.1).
+bool isLoopback(const asio::ip::address& a) {
+    if (a.is_loopback()) return true;
+    if (a.is_v6() && a.to_v6().is_v4_mapped())
+        return asio::ip::make_address_v4(asio::ip::v4_mapped, a.to_v6()).is_loopback();
+    return false;
+}
+
 std::string describe(const tcp::endpoint& e) {
     std::string a = e.address().to_string();
     if (e.address().is_v6()) a = "[" + a + "]";
@@ -349,6 +357,11 @@ private:
             ++server_.protocolErrors;
             if (mayWarn()) log().warn("%s: HELLO (request %u): %s", name_.c_str(), id, printable(e.what()).c_str());
             reply(detail::errorAnswer(id, {e.code(), detail::messageOf(e)}).frame);
+            // docs/protocol.md: the session is not open after a HELLO that does
+            // not decode, even if one was: the next frame must be HELLO again.
+            if (hello_) armSessionTimer(server_.options.helloTimeout, SessionTimer::Hello);
+            hello_ = false;
+            helloSeen_ = false;
             return;
         }
         if (!hello_)
@@ -587,7 +600,7 @@ ServerCore::ServerCore(VisionInterface& v, TauNetOptions o)
         throw IoError("cannot listen on " + where + ": " + e.code().message());
     }
     log().notice("listening on %s (backend %s)", describe(endpoint).c_str(), handler.backend().c_str());
-    if (!endpoint.address().is_loopback())
+    if (!isLoopback(endpoint.address()))
         log().warn("listening on %s: reachable from other machines; the TAU protocol has no authentication",
                    describe(endpoint).c_str());
     accept();
