@@ -33,4 +33,21 @@ std::string hex8(std::uint32_t value) {
     return out;
 }
 
+std::string escapeControl(std::string_view text, bool backslashes) {
+    static const char* const kHex = "0123456789abcdef";
+    std::string out;
+    out.reserve(text.size());
+    for (const char c : text) {
+        const auto u = static_cast<unsigned char>(c);
+        if (u < 0x20 || u == 0x7f || (backslashes && c == '\\')) {
+            out += "\\x";
+            out += kHex[u >> 4];
+            out += kHex[u & 0xf];
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
+
 }  // namespace avatar::text

@@ -157,21 +157,7 @@ public:
 private:
     static std::string prefix(const std::string& what) { return what.empty() ? what : what + " "; }
 
-    static std::string escaped(const std::string& value) {
-        std::string out;
-        for (char c : value) {
-            const auto u = static_cast<unsigned char>(c);
-            if (u < 0x20 || u == 0x7f) {
-                static const char* const hex = "0123456789abcdef";
-                out += "\\x";
-                out += hex[u >> 4];
-                out += hex[u & 0xf];
-            } else {
-                out += c;
-            }
-        }
-        return out;
-    }
+    static std::string escaped(const std::string& value) { return text::escapeControl(value); }
 
     const ErrorSite& site_;
 };

@@ -35,6 +35,14 @@ WorldSpec spec(std::uint64_t seed, Scenario scenario = Scenario::Static) {
     return s;
 }
 
+/// One run of the world's servo from its start, the sample picked as an operator would.
+servo::ServoResult runFromTheStart(ServoWorld& world) {
+    servo::ServoTask task;
+    task.sampleHintBaseMm = world.sampleHintBaseMm();
+    servo::VisualServo controller(world.arm(), world.vision(), world.servoConfig());
+    return controller.run(task);
+}
+
 int countNotes(const servo::ServoResult& r, const std::string& text) {
     int n = 0;
     for (const servo::ServoStep& s : r.steps) n += s.note.find(text) != std::string::npos ? 1 : 0;
@@ -147,10 +155,7 @@ TEST(ServoSim, AnArmFaultEndsTheRunInFault) {
     world.arm().setPoseListener([&](const RigidTransform&) {
         if (++moves == 2) world.arm().injectFault("joint 2 at its limit");
     });
-    servo::ServoTask task;
-    task.sampleHintBaseMm = world.sampleHintBaseMm();
-    servo::VisualServo controller(world.arm(), world.vision(), world.servoConfig());
-    const servo::ServoResult r = controller.run(task);
+    const servo::ServoResult r = runFromTheStart(world);
     EXPECT_EQ(r.finalState, servo::ServoState::Fault);
     EXPECT_EQ(r.reason, "arm fault: joint 2 at its limit");
     EXPECT_EQ(r.moves, 2);
@@ -188,10 +193,7 @@ TEST(ServoSim, ASampleThatNeverReturnsTimesOut) {
     s.lostFrom = 1;
     s.lostLooks = 1000;
     ServoWorld world(s);
-    servo::ServoTask task;
-    task.sampleHintBaseMm = world.sampleHintBaseMm();
-    servo::VisualServo controller(world.arm(), world.vision(), world.servoConfig());
-    const servo::ServoResult r = controller.run(task);
+    const servo::ServoResult r = runFromTheStart(world);
     EXPECT_EQ(r.finalState, servo::ServoState::TimedOut);
     EXPECT_EQ(r.moves, 1);
     EXPECT_EQ(r.reason.rfind("no usable vision data for ", 0), 0u) << r.reason;
@@ -203,10 +205,7 @@ TEST(ServoSim, AnArmSeenTooFarFromTelemetryIsNeverMovedOn) {
     s.config.servo->armToleranceMm = 30;  // the 5 degree, 2 cm registration puts it further
     s.config.servo->lostTimeoutMs = 1000;
     ServoWorld world(s);
-    servo::ServoTask task;
-    task.sampleHintBaseMm = world.sampleHintBaseMm();
-    servo::VisualServo controller(world.arm(), world.vision(), world.servoConfig());
-    const servo::ServoResult r = controller.run(task);
+    const servo::ServoResult r = runFromTheStart(world);
     EXPECT_EQ(r.finalState, servo::ServoState::TimedOut);
     EXPECT_EQ(r.moves, 0);
     EXPECT_EQ(world.arm().moves(), 0);

@@ -1322,6 +1322,29 @@ std::string slurp(const std::string& path) {
     return s.str();
 }
 
+/// taunet replaying the lab session on a free loopback port, logging at info
+/// into @p errPath; its port, or std::nullopt (it is stopped) when it did not start.
+std::optional<std::uint16_t> startLabDaemon(Child& child, const std::string& errPath) {
+    child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab", "--port",
+                         "0", "--log", "info"},
+                        errPath);
+    std::string out;
+    const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
+    if (!m) {
+        waitExit(child.pid, 0ms);
+        return std::nullopt;
+    }
+    return static_cast<std::uint16_t>(std::stoi((*m)[1].str()));
+}
+
+/// SIGTERM and the exit; true when it exited in time.
+bool stopDaemon(Child& child) {
+    ::kill(child.pid, SIGTERM);
+    const bool exited = waitExit(child.pid, 15s).has_value();
+    ::close(child.out);
+    return exited;
+}
+
 }  // namespace
 
 TEST(TauNetDaemon, SigtermShutsDownCleanly) {
@@ -1386,16 +1409,10 @@ TEST(TauNetDaemon, SigtermShutsDownCleanly) {
 // out one WARN line each (it was 11 MB for 100,000 frames).
 TEST(TauNetDaemon, TheLogCannotBeForgedOrFlooded) {
     const std::string errPath = ::testing::TempDir() + "taunet_flood.log";
-    Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
-                               "--port", "0", "--log", "info"},
-                              errPath);
-    std::string out;
-    const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
-    if (!m) {
-        waitExit(child.pid, 0ms);
-        FAIL() << "no 'listening on' line; stderr: " << slurp(errPath);
-    }
-    const auto port = static_cast<std::uint16_t>(std::stoi((*m)[1].str()));
+    Child child;
+    const auto started = startLabDaemon(child, errPath);
+    ASSERT_TRUE(started) << "taunet did not start; stderr: " << slurp(errPath);
+    const std::uint16_t port = *started;
     const std::size_t before = slurp(errPath).size();
     {
         Client c(port);
@@ -1416,9 +1433,7 @@ TEST(TauNetDaemon, TheLogCannotBeForgedOrFlooded) {
         }
         EXPECT_EQ(last.request, static_cast<std::uint32_t>(frames + 1));
     }
-    ASSERT_EQ(::kill(child.pid, SIGTERM), 0);
-    ASSERT_TRUE(waitExit(child.pid, 15s).has_value());
-    ::close(child.out);
+    ASSERT_TRUE(stopDaemon(child));
     const std::string log = slurp(errPath);
     const std::string during = log.substr(before);
     EXPECT_LT(during.size(), 20000u) << "the flood wrote " << during.size() << " bytes of log";
@@ -1434,26 +1449,18 @@ TEST(TauNetDaemon, TheLogCannotBeForgedOrFlooded) {
 // are asked for after it (it was an ERROR, again for every snapshot).
 TEST(TauNetDaemon, TheEndOfAReplayIsLoggedOnceAsANotice) {
     const std::string errPath = ::testing::TempDir() + "taunet_replay_end.log";
-    Child child = spawnTaunet({"--backend", "replay", "--session", std::string(AVATAR_DATA_DIR) + "/sessions/lab",
-                               "--port", "0", "--log", "info"},
-                              errPath);
-    std::string out;
-    const auto m = readUntil(child.out, std::regex(R"(listening on 127\.0\.0\.1:([0-9]+)\n)"), out, 30s);
-    if (!m) {
-        waitExit(child.pid, 0ms);
-        FAIL() << "no 'listening on' line; stderr: " << slurp(errPath);
-    }
+    Child child;
+    const auto started = startLabDaemon(child, errPath);
+    ASSERT_TRUE(started) << "taunet did not start; stderr: " << slurp(errPath);
     {
-        Client c(static_cast<std::uint16_t>(std::stoi((*m)[1].str())));
+        Client c(*started);
         c.hello();
         for (std::uint32_t i = 0; i < 6; ++i) {
             const RawFrame r = c.request(kSnapshot, 2 + i, u32Payload(30000));
             EXPECT_EQ(r.type, i < 3 ? 0x8004 : 0xFFFF) << "snapshot " << i + 1;
         }
     }
-    ASSERT_EQ(::kill(child.pid, SIGTERM), 0);
-    ASSERT_TRUE(waitExit(child.pid, 15s).has_value());
-    ::close(child.out);
+    ASSERT_TRUE(stopDaemon(child));
     const std::string log = slurp(errPath);
     std::size_t notices = 0;
     for (std::size_t at = 0; (at = log.find("NOTICE avatar.vision: acquisition finished", at)) != std::string::npos; ++at)

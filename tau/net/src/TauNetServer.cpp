@@ -4,6 +4,7 @@
 
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
+#include <avatar/common/internal/Text.h>
 #include <avatar/tau/Protocol.h>
 #include <avatar/tau/VisionInterface.h>
 
@@ -40,21 +41,8 @@ log4cpp::Category& log() { return logging::category("taunet"); }
 
 /// Text from the wire made safe to log: control characters (a newline would
 /// forge a log line) and backslashes are written as \xNN escapes.
-std::string printable(const std::string& text) {
-    std::string out;
-    out.reserve(text.size());
-    for (const char c : text) {
-        const auto u = static_cast<unsigned char>(c);
-        if (u < 0x20 || u == 0x7f || c == '\\') {
-            static const char* const kHex = "0123456789abcdef";
-            out += "\\x";
-            out += kHex[u >> 4];
-            out += kHex[u & 0xf];
-        } else {
-            out += c;
-        }
-    }
-    return out;
+std::string printable(const std::string& wire) {
+    return text::escapeControl(wire, true);
 }
 
 /// Warnings about one client's mistakes: the first kWarningBurst are logged,

@@ -29,6 +29,12 @@ std::string formatDoubles(const Values& values, std::size_t count) {
     return out;
 }
 
+/// @p text with every control character (below 0x20, and 0x7f) written as
+/// "\xNN", and, when @p backslashes, every backslash too ("\x5c"), so the
+/// result cannot be told from an escape: for messages and logs that quote
+/// text from outside.
+std::string escapeControl(std::string_view text, bool backslashes = false);
+
 /// 8 lowercase hexadecimal digits: "04c11db7".
 std::string hex8(std::uint32_t value);
 
