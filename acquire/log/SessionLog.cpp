@@ -80,8 +80,17 @@ PairFiles SessionLogWriter::writePair(const StereoImagePair& pair, Compression c
         name.group = pair.id().group;
         name.member = pair.id().member;
         name.geometry = geometryOf(pair.image(side), pair.layout(), rawByteOrder);
-        (side == Side::Left ? files.left : files.right) =
-            writeImageFile(directory_, pair.image(side), name, compression);
+        try {
+            (side == Side::Left ? files.left : files.right) =
+                writeImageFile(directory_, pair.image(side), name, compression);
+        } catch (...) {
+            // The right image failed: the left one, already under its final name, goes too.
+            if (side == Side::Right) {
+                std::error_code ec;
+                fs::remove(directory_ / files.left.name, ec);
+            }
+            throw;
+        }
     }
     logger().debug("session %s: wrote %s and %s", directory_.c_str(), files.left.name.c_str(),
                    files.right.name.c_str());

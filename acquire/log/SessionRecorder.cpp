@@ -23,7 +23,19 @@ PairFiles SessionLogSink::writePair(const StereoImagePair& pair) {
     return writer_.writePair(pair, compression_, byteOrder_);
 }
 
-void SessionLogSink::append(const SessionRecord& record) { writer_.append(record); }
+void SessionLogSink::append(const SessionRecord& record) {
+    try {
+        writer_.append(record);
+    } catch (...) {
+        // No record will name them: remove the pair's images rather than leave orphans.
+        for (const ImageFileRef* file : {&record.files.left, &record.files.right}) {
+            if (file->name.empty()) continue;
+            std::error_code ec;
+            std::filesystem::remove(writer_.directory() / file->name, ec);
+        }
+        throw;
+    }
+}
 
 std::string SessionLogSink::describe() const { return writer_.directory().string(); }
 

@@ -13,6 +13,8 @@
 #include <avatar/common/Logging.h>
 
 #include <gtest/gtest.h>
+
+#include <fstream>
 #include <log4cpp/Category.hh>
 #include <log4cpp/StringQueueAppender.hh>
 
@@ -298,6 +300,29 @@ TEST(SessionRecorder, ARecordTheWriterRefusesIsCountedWithItsReason) {
     EXPECT_EQ(s.failed, 2u);
     EXPECT_EQ(s.lastError.rfind("iteration 6 not recorded in " + (dir / "s").string() + ": ", 0), 0u) << s.lastError;
     EXPECT_NE(s.lastError.find("configXml"), std::string::npos) << s.lastError;
+    // The refused records left no image files behind: two pairs, four files.
+    std::size_t images = 0;
+    for (const auto& entry : fs::directory_iterator(dir / "s")) images += entry.path().extension() == ".raw" ? 1 : 0;
+    EXPECT_EQ(images, 4u);
+}
+
+// When the right image cannot be written, the left one (already complete
+// under its final name) is removed: no orphan.
+TEST(SessionRecorder, APairWhoseRightImageFailsLeavesNoLeftImage) {
+    TempDir dir;
+    SessionRecorder recorder(std::make_unique<SessionLogSink>(dir / "s"));
+    const std::string right = "R_00001_00000_8x6_12b_1c_GB_le.raw";
+    { std::ofstream(dir / "s" / right) << "in the way"; }
+    EXPECT_TRUE(recorder.record(pairOf(1, 0, 1), 1, 1, std::string(kConfigXmlV1), std::nullopt));
+    recorder.flush();
+    EXPECT_EQ(recorder.status().failed, 1u);
+    EXPECT_NE(recorder.status().lastError.find(right + " exists already"), std::string::npos)
+        << recorder.status().lastError;
+    EXPECT_FALSE(fs::exists(dir / "s" / "L_00001_00000_8x6_12b_1c_GB_le.raw"));
+    // The next pair is recorded as usual.
+    EXPECT_TRUE(recorder.record(pairOf(1, 1, 2), 2, 1, std::string(kConfigXmlV1), std::nullopt));
+    recorder.flush();
+    EXPECT_EQ(recorder.status().recorded, 1u);
 }
 
 TEST(SessionRecorder, InvalidOptionsAndNoSinkAreRefused) {
