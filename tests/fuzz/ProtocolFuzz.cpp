@@ -22,6 +22,7 @@ void decodeAs(std::uint16_t type, const std::vector<std::uint8_t>& payload) {
             case 0x0007: decodeConfigReply(payload); break;
             case 0x0008: (type & kReplyBit) ? (void)decodeImagesReply(payload) : (void)decodeGetImages(payload); break;
             case 0x0009: decodeStatusReply(payload); break;
+            case 0x000A: (type & kReplyBit) ? (void)decodeAuthenticateReply(payload) : (void)decodeAuthenticate(payload); break;
             case 0x7FFF: decodeErrorReply(payload); break;
             default: decodeEmpty(MessageType::Status, payload); break;
         }

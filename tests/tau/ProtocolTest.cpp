@@ -1,12 +1,18 @@
 // The TAU protocol codec against docs/protocol.md, byte for byte.
 
+#include <avatar/tau/Authentication.h>
 #include <avatar/tau/Protocol.h>
+
+#include "TempDir.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <limits>
+
+#include <sys/stat.h>
 
 using namespace avatar;
 using namespace avatar::tau;
@@ -105,7 +111,7 @@ TEST(Protocol, DoublesAreIeeeBigEndian) {
 
 TEST(Protocol, EveryMessageRoundTrips) {
     EXPECT_EQ(decodeHello(encode(Hello{1, "controller"})).clientName, "controller");
-    const HelloReply hr = decodeHelloReply(encode(HelloReply{1, "taunet", "replay"}));
+    const HelloReply hr = decodeHelloReply(encode(HelloReply{1, "taunet", "replay", false, {}}));
     EXPECT_EQ(hr.serverName, "taunet");
     EXPECT_EQ(hr.backend, "replay");
     EXPECT_EQ(decodeTakeSnapshot(encode(TakeSnapshot{1234})).timeoutMs, 1234u);
@@ -213,7 +219,7 @@ TEST(Decoders, RejectShortLongAndOutOfRangePayloadsByName) {
         {[] { decodeGetImages({0, 3, 0}); }, "GET_IMAGES: jpegQuality 0 is outside 1..100"},
         {[] { decodeGetImages({0, 3, 101}); }, "GET_IMAGES: jpegQuality 101 is outside 1..100"},
         {[] { decodeEmpty(MessageType::Status, {1}); }, "STATUS: takes no fields, got 1 byte(s)"},
-        {[] { decodeErrorReply({0, 13, 0, 0, 0, 0}); }, "ERROR: code 13 is not 1..12"},
+        {[] { decodeErrorReply({0, 15, 0, 0, 0, 0}); }, "ERROR: code 15 is not 1..14"},
     };
     for (const auto& [f, message] : cases) {
         SCOPED_TRACE(message);
@@ -276,7 +282,8 @@ TEST(Protocol, VersionOneSeesOnlyWholeTargetsAsStereo) {
     EXPECT_FALSE(back.targets[2].positionBaseMm);
     EXPECT_EQ(back.targets[2].centroidLeftPx, partial.centroidLeftPx);
     EXPECT_THROW(decodeTargetData(v1, 2), ProtocolError);
-    EXPECT_THROW(encode(t, 3), InvalidArgument);
+    EXPECT_EQ(encode(t, 3), encode(t, 2));  // version 3 changed the handshake only
+    EXPECT_THROW(encode(t, 4), InvalidArgument);
 }
 
 TEST(Decoders, ForgedCountsAndFlagsCannotMakeTheDecoderAllocateOrMisread) {
@@ -307,4 +314,129 @@ TEST(Protocol, NamesAndConnectionPolicy) {
     EXPECT_TRUE(closesConnection(ErrorCode::HelloRequired));
     EXPECT_FALSE(closesConnection(ErrorCode::BadPayload));
     EXPECT_FALSE(closesConnection(ErrorCode::UnknownMessage));
+}
+
+// ---- version 3: authentication (docs/protocol.md, "Authentication") --------
+
+namespace {
+
+Bytes sequence(std::uint8_t from, std::size_t n) {
+    Bytes b(n);
+    for (std::size_t i = 0; i < n; ++i) b[i] = static_cast<std::uint8_t>(from + i);
+    return b;
+}
+
+Bytes fromHex(const std::string& hex) {
+    Bytes b;
+    for (std::size_t i = 0; i + 1 < hex.size(); i += 2) b.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+    return b;
+}
+
+}  // namespace
+
+TEST(Protocol, HelloReplyCarriesTheChallengeFromVersionThreeOnly) {
+    const Bytes challenge = sequence(0, kChallengeSize);
+    Bytes expected{0, 3, 0, 0, 0, 1, 'T', 0, 0, 0, 1, 'r', 1, 0, 0, 0, 32};
+    expected.insert(expected.end(), challenge.begin(), challenge.end());
+    EXPECT_EQ(encode(HelloReply{3, "T", "r", true, challenge}), expected);
+    const HelloReply back = decodeHelloReply(expected);
+    EXPECT_TRUE(back.authenticationRequired);
+    EXPECT_EQ(back.challenge, challenge);
+    // Version 2 has no such fields: the same record encodes as before.
+    EXPECT_EQ(encode(HelloReply{2, "T", "r", true, challenge}), (Bytes{0, 2, 0, 0, 0, 1, 'T', 0, 0, 0, 1, 'r'}));
+    EXPECT_EQ(encode(HelloReply{3, "T", "r", false, {}}), (Bytes{0, 3, 0, 0, 0, 1, 'T', 0, 0, 0, 1, 'r', 0, 0, 0, 0, 0}));
+}
+
+TEST(Protocol, HelloReplyWithABadChallengeIsRefused) {
+    auto message = [](const Bytes& payload) {
+        try {
+            decodeHelloReply(payload);
+        } catch (const ProtocolError& e) {
+            EXPECT_EQ(e.code(), ErrorCode::BadPayload);
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    Bytes head{0, 3, 0, 0, 0, 1, 'T', 0, 0, 0, 1, 'r'};
+    Bytes flagTwo = head;
+    flagTwo.insert(flagTwo.end(), {2, 0, 0, 0, 0});
+    EXPECT_EQ(message(flagTwo), "BAD_PAYLOAD: HELLO_REPLY: authentication: 2 is not 0 or 1");
+    Bytes shortChallenge = head;
+    shortChallenge.insert(shortChallenge.end(), {0, 0, 0, 0, 5, 1, 2, 3, 4, 5});
+    EXPECT_EQ(message(shortChallenge), "BAD_PAYLOAD: HELLO_REPLY: challenge: 5 bytes, not 0 or 32");
+    Bytes requiredEmpty = head;
+    requiredEmpty.insert(requiredEmpty.end(), {1, 0, 0, 0, 0});
+    EXPECT_EQ(message(requiredEmpty), "BAD_PAYLOAD: HELLO_REPLY: challenge: empty although authentication is required");
+    EXPECT_EQ(message(head), "BAD_PAYLOAD: HELLO_REPLY: authentication: needs 1 byte(s), 0 left");
+}
+
+TEST(Protocol, AuthenticateMessagesRoundTripAndHoldExactSizes) {
+    const Authenticate a{sequence(32, 32), sequence(100, 32)};
+    const Bytes b = encode(a);
+    ASSERT_EQ(b.size(), 4u + 32 + 4 + 32);
+    EXPECT_EQ(Bytes(b.begin(), b.begin() + 4), (Bytes{0, 0, 0, 32}));
+    const Authenticate back = decodeAuthenticate(b);
+    EXPECT_EQ(back.nonce, a.nonce);
+    EXPECT_EQ(back.mac, a.mac);
+    EXPECT_EQ(decodeAuthenticateReply(encode(AuthenticateReply{sequence(7, 32)})).mac, sequence(7, 32));
+    try {
+        decodeAuthenticate(encode(Authenticate{sequence(0, 16), sequence(0, 32)}));
+        ADD_FAILURE() << "a 16-byte nonce was accepted";
+    } catch (const ProtocolError& e) {
+        EXPECT_STREQ(e.what(), "BAD_PAYLOAD: AUTHENTICATE: nonce: 16 bytes, not 32");
+    }
+    EXPECT_THROW(decodeAuthenticateReply(encode(AuthenticateReply{sequence(0, 31)})), ProtocolError);
+    EXPECT_EQ(messageName(0x000A), "AUTHENTICATE");
+    EXPECT_EQ(messageName(0x800A), "AUTHENTICATE_REPLY");
+    EXPECT_STREQ(errorName(ErrorCode::AuthenticationRequired), "AUTHENTICATION_REQUIRED");
+    EXPECT_STREQ(errorName(ErrorCode::AuthenticationFailed), "AUTHENTICATION_FAILED");
+    EXPECT_TRUE(closesConnection(ErrorCode::AuthenticationRequired));
+    EXPECT_TRUE(closesConnection(ErrorCode::AuthenticationFailed));
+}
+
+// The test vector of docs/protocol.md, computed independently (Python's hmac).
+TEST(Authentication, ProofsMatchTheDocumentedVector) {
+    const std::string key = "0123456789abcdef0123456789abcdef";
+    const Bytes challenge = sequence(0, 32), nonce = sequence(32, 32);
+    EXPECT_EQ(clientProof(key, challenge, nonce),
+              fromHex("1885e119c411799fe26d17c778a93c703b712424972f0c3db70d5dea292aae4a"));
+    EXPECT_EQ(serverProof(key, challenge, nonce),
+              fromHex("783ab7f8d9911c268e5d1d030a291cd32d24fd8c281a9e87d945228e3251bcd9"));
+    EXPECT_TRUE(macsEqual(clientProof(key, challenge, nonce), clientProof(key, challenge, nonce)));
+    EXPECT_FALSE(macsEqual(clientProof(key, challenge, nonce), serverProof(key, challenge, nonce)));
+    EXPECT_FALSE(macsEqual(clientProof(key, challenge, nonce), Bytes(31, 0)));
+    const Bytes r1 = randomBytes(32), r2 = randomBytes(32);
+    EXPECT_EQ(r1.size(), 32u);
+    EXPECT_NE(r1, r2);
+}
+
+TEST(Authentication, KeyFileMustBePrivateAndLongEnough) {
+    test::TempDir dir("avatar-key");
+    const auto write = [&](const std::string& name, const std::string& content, mode_t mode) {
+        const auto path = dir / name;
+        std::ofstream(path) << content;
+        ::chmod(path.c_str(), mode);
+        return path;
+    };
+    EXPECT_EQ(readAuthKeyFile(write("good", "6f1d2c3b4a5968778695a4b3c2d1e0f0\n", 0600)),
+              "6f1d2c3b4a5968778695a4b3c2d1e0f0");
+    const auto open = write("open", "6f1d2c3b4a5968778695a4b3c2d1e0f0\n", 0644);
+    try {
+        readAuthKeyFile(open);
+        ADD_FAILURE() << "a world-readable key was accepted";
+    } catch (const InvalidArgument& e) {
+        EXPECT_EQ(std::string(e.what()), "authentication key file " + open.string() +
+                                             " may be read or written by group or others (mode 0644); make it "
+                                             "readable by the service only: chmod 600 " + open.string());
+    }
+    const auto tiny = write("tiny", "short\n", 0600);
+    try {
+        readAuthKeyFile(tiny);
+        ADD_FAILURE() << "a 5-byte key was accepted";
+    } catch (const InvalidArgument& e) {
+        EXPECT_EQ(std::string(e.what()), "authentication key file " + tiny.string() +
+                                             " holds 5 bytes; at least 16 are needed (openssl rand -hex 32 makes one)");
+    }
+    EXPECT_THROW(readAuthKeyFile(dir / "missing"), IoError);
+    EXPECT_THROW(readAuthKeyFile(dir.path()), InvalidArgument);  // a directory
 }

@@ -259,3 +259,31 @@ TEST(TauTuiTest, ScriptModeWithoutServerFails) {
     EXPECT_NE(r.err.find("refused"), std::string::npos) << r.err;
     fs::remove_all(out);
 }
+
+// docs/tools/tautui.md: --auth-key proves the daemon's key over TCP,
+// --unix-socket connects through the socket file instead of host:port.
+TEST(TauTuiTest, ScriptModeWithAKeyAndOverAUnixSocket) {
+    const fs::path out = scratchDir("auth");
+    const std::string key = (out / "key").string();
+    const std::string sock = (out / "taunet.sock").string();
+    std::ofstream(key) << "0123456789abcdef0123456789abcdef\n";
+    fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write);
+    TauNetProcess server(0, {"--auth-key", key, "--unix-socket", sock});
+    std::vector<std::string> keyed = tautui(server.port(), out);
+    keyed.insert(keyed.end(), {"--auth-key", key});
+    const CommandResult proved = runCommand(keyed, "status\n", 20s);
+    EXPECT_EQ(proved.status, 0) << proved.out << proved.err;
+    EXPECT_NE(proved.out.find("connected: TAUNet at 127.0.0.1:" + std::to_string(server.port())), std::string::npos)
+        << proved.out;
+    EXPECT_NE(proved.out.find("status: heartbeat "), std::string::npos) << proved.out;
+    const CommandResult refused = runCommand(tautui(server.port(), out), "status\n", 20s);
+    EXPECT_EQ(refused.status, 1);
+    EXPECT_NE(refused.err.find("HELLO: authentication: the server requires it and no key is set"), std::string::npos)
+        << refused.err;
+    const CommandResult local = runCommand({TAUTUI_EXECUTABLE, "--unix-socket", sock, "--out", out.string()},
+                                           "status\n", 20s);
+    EXPECT_EQ(local.status, 0) << local.out << local.err;
+    EXPECT_NE(local.out.find("connected: TAUNet at unix:" + sock), std::string::npos) << local.out;
+    server.stop();
+    fs::remove_all(out);
+}

@@ -5,6 +5,7 @@
 #include <avatar/acquire/AcquisitionBackends.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
+#include <avatar/tau/Authentication.h>
 #include <avatar/tau/TauNetServer.h>
 #include <avatar/tau/VisionInterface.h>
 
@@ -28,7 +29,8 @@ namespace {
 void printHelp(const po::options_description& options) {
     std::cout << "Usage: taunet --backend NAME [options]\n\n"
                  "Serves the AVATAR vision system over TCP with the TAU protocol (docs/protocol.md)\n"
-                 "until SIGINT or SIGTERM. Listens on 127.0.0.1 unless --listen says otherwise.\n\n"
+                 "until SIGINT or SIGTERM. Listens on 127.0.0.1 unless --listen says otherwise;\n"
+                 "any other address needs --auth-key. --unix-socket serves a Unix-domain socket too.\n\n"
               << options << "\nBackends:\n";
     for (const auto& b : backendTable())
         std::cout << "  " << b.name << std::string(b.name.size() < 12 ? 12 - b.name.size() : 1, ' ') << b.summary
@@ -62,8 +64,13 @@ int main(int argc, char** argv) {
         ("first", po::value<std::uint64_t>()->default_value(0), "files: index of the first pair")
         ("count", po::value<std::uint64_t>(), "files: number of pairs (default: until no file exists)")
         ("listen", po::value<std::string>()->default_value("127.0.0.1"),
-            "address to listen on; anything but a loopback address exposes the vision system to the network")
+            "TCP address to listen on ('none': no TCP); anything but loopback needs --auth-key")
         ("port,p", po::value<unsigned>()->default_value(7010), "TCP port; 0 picks a free one (printed on stdout)")
+        ("auth-key", po::value<std::string>(),
+            "file with the shared secret (chmod 600, at least 16 bytes, e.g. openssl rand -hex 32); "
+            "every TCP client must then prove it (protocol version 3)")
+        ("unix-socket", po::value<std::string>(), "also listen on this Unix-domain socket; its permissions decide who may connect")
+        ("unix-socket-mode", po::value<std::string>()->default_value("0600"), "permissions of the socket file, octal")
         ("record", po::value<std::string>(), "record every pair and its result into this new session directory")
         ("record-png", "record: archive pairs as 16-bit PNG instead of raw files")
         ("period", po::value<unsigned>()->default_value(0), "pause between iterations while searching, ms")
@@ -119,6 +126,22 @@ int main(int argc, char** argv) {
 
         tau::TauNetOptions serverOptions;
         serverOptions.listenAddress = vm["listen"].as<std::string>();
+        if (serverOptions.listenAddress == "none") serverOptions.listenAddress.clear();
+        if (vm.count("auth-key")) serverOptions.authKey = tau::readAuthKeyFile(vm["auth-key"].as<std::string>());
+        if (vm.count("unix-socket")) serverOptions.unixSocketPath = vm["unix-socket"].as<std::string>();
+        {
+            const std::string mode = vm["unix-socket-mode"].as<std::string>();
+            std::size_t used = 0;
+            unsigned long value = 0;
+            try {
+                value = std::stoul(mode, &used, 8);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used != mode.size() || mode.empty() || value > 0777)
+                throw InvalidArgument("--unix-socket-mode '" + mode + "' is not an octal permission mode 0..0777");
+            serverOptions.unixSocketMode = static_cast<unsigned>(value);
+        }
         serverOptions.port = static_cast<std::uint16_t>(checkedRange<unsigned>(vm, "port", 0, 65535));
         serverOptions.workerThreads = checkedRange<unsigned>(vm, "workers", 1, 64);
         serverOptions.maxConnections = checkedRange<unsigned>(vm, "max-clients", 1, 100000);
@@ -152,12 +175,12 @@ int main(int argc, char** argv) {
             caught = signal;
             server.stop();
         });
-        {
-            const std::string address = server.address();
+        if (const std::string address = server.address(); !address.empty()) {
             const bool v6 = address.find(':') != std::string::npos;
             std::cout << "listening on " << (v6 ? "[" + address + "]" : address) << ":" << server.port()
                       << std::endl;
         }
+        if (!server.unixSocketPath().empty()) std::cout << "listening on unix:" << server.unixSocketPath() << std::endl;
         signalIo.run();  // until SIGINT or SIGTERM
         log.notice("%s received: shutting down", caught == SIGINT ? "SIGINT" : "SIGTERM");
         server.wait();

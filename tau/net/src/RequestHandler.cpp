@@ -165,8 +165,11 @@ bool RequestHandler::known(std::uint16_t type) {
            type <= static_cast<std::uint16_t>(MessageType::Status);
 }
 
-std::vector<std::uint8_t> RequestHandler::helloReply(std::uint32_t request, std::uint16_t version) const {
-    return replyFrame(MessageType::Hello, request, encode(HelloReply{version, serverName_, backend_}));
+std::vector<std::uint8_t> RequestHandler::helloReply(std::uint32_t request, std::uint16_t version,
+                                                     bool authenticationRequired,
+                                                     const std::vector<std::uint8_t>& challenge) const {
+    return replyFrame(MessageType::Hello, request,
+                      encode(HelloReply{version, serverName_, backend_, authenticationRequired, challenge}));
 }
 
 Answer RequestHandler::handle(const Frame& request, std::uint16_t version) const {
@@ -231,7 +234,8 @@ std::vector<std::uint8_t> RequestHandler::answer(const Frame& request, std::uint
         case MessageType::Status:
             decodeEmpty(type, payload);
             return replyFrame(type, id, encode(statusReply(vision_.status(), backend_)));
-        case MessageType::Hello:
+        case MessageType::Hello:         // the connection answers these two itself
+        case MessageType::Authenticate:
         case MessageType::Error: break;
     }
     throw ProtocolError(ErrorCode::UnknownMessage, "unknown message type " + messageName(request.header.type));

@@ -73,8 +73,12 @@ public:
     /// @p version is the session's protocol version (its HELLO's).
     Answer handle(const Frame& request, std::uint16_t version) const;
 
-    /// HELLO_REPLY for a HELLO whose version was accepted: that version.
-    std::vector<std::uint8_t> helloReply(std::uint32_t request, std::uint16_t version) const;
+    /// HELLO_REPLY for a HELLO whose version was accepted: that version, and
+    /// from version 3 on whether the connection must authenticate and the
+    /// challenge to prove the key on (empty when the server has none).
+    std::vector<std::uint8_t> helloReply(std::uint32_t request, std::uint16_t version,
+                                         bool authenticationRequired = false,
+                                         const std::vector<std::uint8_t>& challenge = {}) const;
 
     const std::string& backend() const { return backend_; }
 

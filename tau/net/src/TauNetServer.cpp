@@ -5,12 +5,15 @@
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
 #include <avatar/common/internal/Text.h>
+#include <avatar/tau/Authentication.h>
 #include <avatar/tau/Protocol.h>
 #include <avatar/tau/VisionInterface.h>
 
 #include <boost/asio/dispatch.hpp>
+#include <boost/asio/generic/stream_protocol.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/local/stream_protocol.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
@@ -22,17 +25,29 @@
 
 #include <array>
 #include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <condition_variable>
 #include <deque>
 #include <map>
 #include <mutex>
 #include <thread>
+#include <type_traits>
 #include <vector>
+
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
 
 namespace avatar::tau {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
+using local = asio::local::stream_protocol;
+/// A connection's socket, TCP or Unix-domain alike.
+using stream = asio::generic::stream_protocol;
 using boost::system::error_code;
 
 namespace {
@@ -65,6 +80,14 @@ std::string describe(const tcp::endpoint& e) {
     return a + ":" + std::to_string(e.port());
 }
 
+/// "unix, uid 1000, pid 4242": who is at the other end of a Unix-domain socket.
+std::string describeLocalPeer(local::socket& socket) {
+    ucred peer{};
+    socklen_t size = sizeof peer;
+    if (::getsockopt(socket.native_handle(), SOL_SOCKET, SO_PEERCRED, &peer, &size) != 0) return "unix";
+    return "unix, uid " + std::to_string(peer.uid) + ", pid " + std::to_string(peer.pid);
+}
+
 constexpr std::size_t kReadChunk = 64 * 1024;
 constexpr std::size_t kMaxWriteBatch = 64;  ///< frames per gathered write
 
@@ -75,7 +98,15 @@ bool TauNetOptions::isValid(std::string* error) const {
         if (error) *error = why;
         return false;
     };
-    if (listenAddress.empty()) return fail("listenAddress is empty");
+    if (listenAddress.empty() && unixSocketPath.empty())
+        return fail("neither listenAddress nor unixSocketPath is set: nothing to listen on");
+    if (!authKey.empty() && authKey.size() < kMinAuthKeySize)
+        return fail("authKey has " + std::to_string(authKey.size()) + " bytes; at least " +
+                    std::to_string(kMinAuthKeySize) + " are needed");
+    if (unixSocketPath.size() >= sizeof(sockaddr_un::sun_path))
+        return fail("unixSocketPath is " + std::to_string(unixSocketPath.size()) + " bytes; at most " +
+                    std::to_string(sizeof(sockaddr_un::sun_path) - 1) + " fit");
+    if (unixSocketMode > 0777) return fail("unixSocketMode must be a permission mode 0..0777");
     if (networkThreads < 1 || networkThreads > 64) return fail("networkThreads must be 1..64");
     if (workerThreads < 1 || workerThreads > 64) return fail("workerThreads must be 1..64");
     if (maxSendQueueBytes < 1024) return fail("maxSendQueueBytes must be at least 1024");
@@ -97,7 +128,15 @@ class ServerCore {
 public:
     ServerCore(VisionInterface& vision, TauNetOptions options);
 
-    void accept();
+    /// Accepts on @p acceptor until it closes; @p authenticate: its
+    /// connections must AUTHENTICATE (TCP with a key).
+    template <typename Acceptor>
+    void accept(Acceptor& acceptor, asio::steady_timer& retry, bool authenticate);
+    /// Makes a Connection of an accepted socket unless the limit refuses it.
+    void admit(stream::socket socket, std::string peer, bool authenticate);
+    void openUnixSocket();
+    /// Removes the socket file if it is still the one this server made.
+    void removeSocketFile();
     void stop();
     void wait();
     void remove(std::uint64_t id);
@@ -119,6 +158,12 @@ public:
     tcp::acceptor acceptor;
     asio::steady_timer acceptRetry;
     tcp::endpoint endpoint;
+    bool listensTcp{false};
+    local::acceptor localAcceptor;
+    asio::steady_timer localAcceptRetry;
+    /// The socket file made, to remove at the end only if it is still ours.
+    dev_t socketDevice{0};
+    ino_t socketInode{0};
     std::vector<std::thread> threads;
 
     mutable std::mutex mutex;  // guards the members below
@@ -129,7 +174,7 @@ public:
     std::map<std::uint64_t, std::weak_ptr<Connection>> connections;
 
     std::atomic<std::uint64_t> accepted{0}, rejected{0}, requests{0}, protocolErrors{0}, slowClients{0},
-        idleTimeouts{0}, helloTimeouts{0}, sessionTimeouts{0}, evicted{0};
+        idleTimeouts{0}, helloTimeouts{0}, sessionTimeouts{0}, evicted{0}, authFailures{0};
 };
 
 /// One client. Every member is touched only on the connection's strand
@@ -144,19 +189,19 @@ public:
 /// served. Other connections are not affected.
 class Connection : public std::enable_shared_from_this<Connection> {
 public:
-    Connection(ServerCore& server, tcp::socket socket, std::uint64_t id)
+    /// @p authenticate: no request but HELLO and AUTHENTICATE until the client proved the key.
+    Connection(ServerCore& server, stream::socket socket, std::uint64_t id, const std::string& peer,
+               bool authenticate)
         : server_(server),
           socket_(std::move(socket)),
           timer_(socket_.get_executor()),
           sessionTimer_(socket_.get_executor()),
           decoder_(kMaxRequestPayload),
-          id_(id) {
-        error_code ec;
-        const auto peer = socket_.remote_endpoint(ec);
-        name_ = "client " + std::to_string(id_) + " (" + (ec ? std::string("?") : describe(peer)) + ")";
-    }
+          id_(id),
+          name_("client " + std::to_string(id) + " (" + peer + ")"),
+          authRequired_(authenticate) {}
 
-    tcp::socket::executor_type executor() { return socket_.get_executor(); }
+    stream::socket::executor_type executor() { return socket_.get_executor(); }
 
     void start() {
         if (phase_ == Phase::Closed) return;
@@ -177,7 +222,7 @@ public:
         if (phase_ == Phase::Closed) return;
         phase_ = Phase::Closed;
         error_code ec;
-        socket_.shutdown(tcp::socket::shutdown_both, ec);
+        socket_.shutdown(asio::socket_base::shutdown_both, ec);
         socket_.close(ec);
         timer_.cancel();
         sessionTimer_.cancel();
@@ -294,6 +339,11 @@ private:
             return closingError(id, ErrorCode::HelloRequired,
                                 "the first message must be HELLO, not " + messageName(type));
         if (type == static_cast<std::uint16_t>(MessageType::Hello)) return hello(frame);
+        if (type == static_cast<std::uint16_t>(MessageType::Authenticate) && version_ >= kAuthenticatingVersion)
+            return authenticate(frame);
+        if (authRequired_ && !authenticated_)
+            return closingError(id, ErrorCode::AuthenticationRequired,
+                                messageName(type) + " before AUTHENTICATE: this connection must prove the key first");
         if (!detail::RequestHandler::known(type)) {
             ++server_.protocolErrors;
             if (mayWarn())
@@ -338,6 +388,12 @@ private:
                                     " is not supported; this server speaks versions " +
                                     std::to_string(kOldestProtocolVersion) + " to " +
                                     std::to_string(kProtocolVersion));
+        if (const auto version = helloVersion(frame.payload);
+            version && authRequired_ && *version < kAuthenticatingVersion)
+            return closingError(id, ErrorCode::VersionUnsupported,
+                                "protocol version " + std::to_string(*version) +
+                                    " has no authentication, which this server requires on TCP connections; "
+                                    "speak version " + std::to_string(kAuthenticatingVersion) + " and AUTHENTICATE");
         Hello m;
         try {
             m = decodeHello(frame.payload);
@@ -350,15 +406,59 @@ private:
             if (hello_) armSessionTimer(server_.options.helloTimeout, SessionTimer::Hello);
             hello_ = false;
             helloSeen_ = false;
+            authenticated_ = false;
+            challenge_.clear();
             return;
         }
         if (!hello_)
             log().info("%s is '%s' (protocol version %u)", name_.c_str(), printable(m.clientName).c_str(),
                        static_cast<unsigned>(m.version));
         hello_ = true;
-        helloSeen_ = true;
         version_ = m.version;
-        reply(server_.handler.helloReply(id, version_));
+        challenge_.clear();
+        if (version_ >= kAuthenticatingVersion && !server_.options.authKey.empty()) challenge_ = randomBytes(kChallengeSize);
+        reply(server_.handler.helloReply(id, version_, authRequired_ && !authenticated_, challenge_));
+        if (open()) {
+            helloSeen_ = true;
+            touch();  // the idle limit runs from here
+        }
+    }
+
+    /// The session may make requests: HELLO done, and AUTHENTICATE where required.
+    bool open() const { return hello_ && (!authRequired_ || authenticated_); }
+
+    void authenticate(const Frame& frame) {
+        const std::uint32_t id = frame.header.request;
+        auto refuse = [&](const std::string& why) {
+            if (mayWarn()) log().warn("%s: AUTHENTICATE (request %u): %s", name_.c_str(), id, why.c_str());
+            reply(detail::errorAnswer(id, {ErrorCode::InvalidState, why}).frame);
+        };
+        if (server_.options.authKey.empty()) return refuse("this server has no authentication key");
+        if (challenge_.empty()) return refuse("no challenge outstanding: send HELLO first (each challenge is used once)");
+        Authenticate m;
+        try {
+            m = decodeAuthenticate(frame.payload);
+        } catch (const ProtocolError& e) {
+            ++server_.protocolErrors;
+            if (mayWarn()) log().warn("%s: AUTHENTICATE (request %u): %s", name_.c_str(), id, printable(e.what()).c_str());
+            reply(detail::errorAnswer(id, {e.code(), detail::messageOf(e)}).frame);
+            return;
+        }
+        const std::vector<std::uint8_t> challenge = std::move(challenge_);
+        challenge_.clear();
+        if (!macsEqual(clientProof(server_.options.authKey, challenge, m.nonce), m.mac)) {
+            ++server_.authFailures;
+            authenticated_ = false;
+            return closingError(id, ErrorCode::AuthenticationFailed, "the proof does not match this server's key");
+        }
+        if (!authenticated_) log().info("%s authenticated", name_.c_str());
+        authenticated_ = true;
+        reply(encodeFrame(replyType(MessageType::Authenticate), id,
+                          encode(AuthenticateReply{serverProof(server_.options.authKey, challenge, m.nonce)})));
+        if (open()) {
+            helloSeen_ = true;
+            touch();
+        }
     }
 
     /// Logs an ERROR answer (and counts BAD_PAYLOAD as a protocol error).
@@ -457,7 +557,7 @@ private:
     void drain() {
         phase_ = Phase::Draining;
         error_code ec;
-        socket_.shutdown(tcp::socket::shutdown_send, ec);
+        socket_.shutdown(asio::socket_base::shutdown_send, ec);
         if (ec) return close("closed after a protocol error");
         armTimer(server_.options.lingerTimeout, TimerPurpose::Linger);
         read();
@@ -500,7 +600,7 @@ private:
         lastActivityNs_ = std::chrono::duration_cast<std::chrono::nanoseconds>(
                               std::chrono::steady_clock::now().time_since_epoch())
                               .count();
-        if (hello_ && server_.options.sessionIdleTimeout.count() > 0)
+        if (open() && server_.options.sessionIdleTimeout.count() > 0)
             armSessionTimer(server_.options.sessionIdleTimeout, SessionTimer::Idle);
     }
 
@@ -510,11 +610,12 @@ private:
         sessionTimer_.async_wait([self = shared_from_this(), generation, purpose, after](const error_code& ec) {
             if (ec || generation != self->sessionGeneration_ || self->phase_ != Phase::Open) return;
             if (purpose == SessionTimer::Hello) {
-                if (self->hello_) return;
+                if (self->open()) return;
                 ++self->server_.helloTimeouts;
-                log().warn("%s: no HELLO within %lld ms; closing", self->name_.c_str(),
+                const char* what = self->hello_ ? "AUTHENTICATE" : "HELLO";
+                log().warn("%s: no %s within %lld ms; closing", self->name_.c_str(), what,
                            static_cast<long long>(after.count()));
-                return self->close("no HELLO in time");
+                return self->close(std::string("no ") + what + " in time");
             }
             if (self->busy_) return self->armSessionTimer(after, purpose);  // a request is being answered
             ++self->server_.sessionTimeouts;
@@ -525,7 +626,7 @@ private:
     }
 
     ServerCore& server_;
-    tcp::socket socket_;
+    stream::socket socket_;
     asio::steady_timer timer_;
     asio::steady_timer sessionTimer_;
     FrameDecoder decoder_;
@@ -535,6 +636,9 @@ private:
 
     Phase phase_{Phase::Open};
     bool hello_{false};
+    const bool authRequired_;
+    bool authenticated_{false};
+    std::vector<std::uint8_t> challenge_;  ///< of the last HELLO_REPLY, until an AUTHENTICATE uses it
     std::uint64_t warnings_{0};    ///< about this client's mistakes, logged or not
     std::uint64_t suppressed_{0};  ///< not logged since the last summary
     std::chrono::steady_clock::time_point lastSummary_{std::chrono::steady_clock::now()};
@@ -571,27 +675,49 @@ ServerCore::ServerCore(VisionInterface& v, TauNetOptions o)
       workers(options.workerThreads),
       acceptStrand(asio::make_strand(io)),
       acceptor(acceptStrand),
-      acceptRetry(acceptStrand) {
-    const std::string where = options.listenAddress + ":" + std::to_string(options.port);
-    try {
-        tcp::resolver resolver(io);
-        const auto results = resolver.resolve(options.listenAddress, std::to_string(options.port),
-                                              tcp::resolver::numeric_service | tcp::resolver::passive);
-        if (results.empty()) throw IoError("cannot listen on " + where + ": the address does not resolve");
-        const tcp::endpoint wanted = results.begin()->endpoint();
-        acceptor.open(wanted.protocol());
-        acceptor.set_option(tcp::acceptor::reuse_address(true));
-        acceptor.bind(wanted);
-        acceptor.listen(asio::socket_base::max_listen_connections);
-        endpoint = acceptor.local_endpoint();
-    } catch (const boost::system::system_error& e) {
-        throw IoError("cannot listen on " + where + ": " + e.code().message());
+      acceptRetry(acceptStrand),
+      localAcceptor(acceptStrand),
+      localAcceptRetry(acceptStrand) {
+    const bool keyed = !options.authKey.empty();
+    if (!options.listenAddress.empty()) {
+        const std::string where = options.listenAddress + ":" + std::to_string(options.port);
+        tcp::endpoint wanted;
+        try {
+            tcp::resolver resolver(io);
+            const auto results = resolver.resolve(options.listenAddress, std::to_string(options.port),
+                                                  tcp::resolver::numeric_service | tcp::resolver::passive);
+            if (results.empty()) throw IoError("cannot listen on " + where + ": the address does not resolve");
+            wanted = results.begin()->endpoint();
+        } catch (const boost::system::system_error& e) {
+            throw IoError("cannot listen on " + where + ": " + e.code().message());
+        }
+        // Beyond loopback anyone on the network could command the arm's eyes.
+        if (!isLoopback(wanted.address()) && !keyed)
+            throw InvalidArgument("listening on " + where +
+                                  " reaches other machines, which needs an authentication key "
+                                  "(TauNetOptions::authKey, taunet --auth-key FILE)");
+        try {
+            acceptor.open(wanted.protocol());
+            acceptor.set_option(tcp::acceptor::reuse_address(true));
+            acceptor.bind(wanted);
+            acceptor.listen(asio::socket_base::max_listen_connections);
+            endpoint = acceptor.local_endpoint();
+        } catch (const boost::system::system_error& e) {
+            throw IoError("cannot listen on " + where + ": " + e.code().message());
+        }
+        listensTcp = true;
+        log().notice("listening on %s (backend %s; %s)", describe(endpoint).c_str(), handler.backend().c_str(),
+                     keyed ? "clients must authenticate" : "no authentication: loopback only");
     }
-    log().notice("listening on %s (backend %s)", describe(endpoint).c_str(), handler.backend().c_str());
-    if (!isLoopback(endpoint.address()))
-        log().warn("listening on %s: reachable from other machines; the TAU protocol has no authentication",
-                   describe(endpoint).c_str());
-    accept();
+    if (!options.unixSocketPath.empty()) {
+        openUnixSocket();
+        char mode[8];
+        std::snprintf(mode, sizeof mode, "%04o", options.unixSocketMode);
+        log().notice("listening on unix:%s (mode %s; backend %s)", options.unixSocketPath.c_str(), mode,
+                     handler.backend().c_str());
+    }
+    if (listensTcp) accept(acceptor, acceptRetry, keyed);
+    if (localAcceptor.is_open()) accept(localAcceptor, localAcceptRetry, false);
     for (std::size_t i = 0; i < options.networkThreads; ++i)
         threads.emplace_back([this] {
             for (;;) {
@@ -605,48 +731,93 @@ ServerCore::ServerCore(VisionInterface& v, TauNetOptions o)
         });
 }
 
-void ServerCore::accept() {
-    acceptor.async_accept(asio::make_strand(io), [this](const error_code& ec, tcp::socket socket) {
+void ServerCore::openUnixSocket() {
+    const std::string& path = options.unixSocketPath;
+    const std::string where = "cannot listen on unix:" + path + ": ";
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) == 0) {
+        if (!S_ISSOCK(st.st_mode)) throw IoError(where + "a file that is not a socket is in the way");
+        // A socket file: in use by a live server, or left behind by a dead one.
+        local::socket probe(io);
+        error_code ec;
+        probe.connect(local::endpoint(path), ec);
+        if (!ec) throw IoError(where + "another server is listening on it");
+        if (::unlink(path.c_str()) != 0) throw IoError(where + "cannot remove the stale socket: " + std::strerror(errno));
+        log().notice("removed the stale socket file %s", path.c_str());
+    }
+    try {
+        localAcceptor.open(local());
+        localAcceptor.bind(local::endpoint(path));
+        // The permissions are set before listen(): until then no client can connect.
+        if (::chmod(path.c_str(), static_cast<mode_t>(options.unixSocketMode)) != 0 ||
+            ::lstat(path.c_str(), &st) != 0) {
+            const std::string why = std::strerror(errno);
+            ::unlink(path.c_str());
+            throw IoError(where + "cannot set its permissions: " + why);
+        }
+        socketDevice = st.st_dev;
+        socketInode = st.st_ino;
+        localAcceptor.listen(asio::socket_base::max_listen_connections);
+    } catch (const boost::system::system_error& e) {
+        throw IoError(where + e.code().message());
+    }
+}
+
+template <typename Acceptor>
+void ServerCore::accept(Acceptor& a, asio::steady_timer& retry, bool authenticate) {
+    a.async_accept(asio::make_strand(io), [this, &a, &retry, authenticate](const error_code& ec,
+                                                                           typename Acceptor::protocol_type::socket socket) {
         if (ec) {
-            if (ec == asio::error::operation_aborted || !acceptor.is_open()) return;
+            if (ec == asio::error::operation_aborted || !a.is_open()) return;
             // Out of descriptors and the like: try again shortly, do not spin.
             log().error("accept failed: %s", ec.message().c_str());
-            acceptRetry.expires_after(std::chrono::milliseconds(100));
-            acceptRetry.async_wait([this](const error_code& e) {
-                if (!e && acceptor.is_open()) accept();
+            retry.expires_after(std::chrono::milliseconds(100));
+            retry.async_wait([this, &a, &retry, authenticate](const error_code& e) {
+                if (!e && a.is_open()) accept(a, retry, authenticate);
             });
             return;
         }
-        std::shared_ptr<Connection> connection;
-        {
-            std::lock_guard<std::mutex> lock(mutex);
-            if (stopping) return;  // the socket closes as it goes out of scope
-            std::shared_ptr<Connection> evict;
-            if (connections.size() >= options.maxConnections) evict = evictionCandidate();
-            if (evict) {
-                ++evicted;
-                log().warn("%zu clients (the limit): a connection %s makes room for a new one", connections.size(),
-                           evict->saidHello() ? "idle the longest" : "that has not said HELLO");
-                asio::post(evict->executor(), [evict] { evict->close("evicted to make room (the connection limit)"); });
-                connections.erase(std::find_if(connections.begin(), connections.end(), [&](const auto& entry) {
-                                      return entry.second.lock() == evict;
-                                  }));
-            }
-            if (connections.size() >= options.maxConnections) {
-                ++rejected;
-                log().warn("connection refused: already %zu clients (the limit), none silent or idle to evict",
-                           connections.size());
-            } else {
-                error_code ignored;
-                socket.set_option(tcp::no_delay(true), ignored);
-                connection = std::make_shared<Connection>(*this, std::move(socket), ++nextId);
-                connections.emplace(nextId, connection);
-                ++accepted;
-            }
+        std::string peer;
+        if constexpr (std::is_same_v<typename Acceptor::protocol_type, tcp>) {
+            error_code ignored;
+            socket.set_option(tcp::no_delay(true), ignored);
+            const auto remote = socket.remote_endpoint(ignored);
+            peer = ignored ? std::string("?") : describe(remote);
+        } else {
+            peer = describeLocalPeer(socket);
         }
-        if (connection) asio::dispatch(connection->executor(), [connection] { connection->start(); });
-        accept();
+        admit(stream::socket(std::move(socket)), std::move(peer), authenticate);
+        accept(a, retry, authenticate);
     });
+}
+
+void ServerCore::admit(stream::socket socket, std::string peer, bool authenticate) {
+    std::shared_ptr<Connection> connection;
+    {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (stopping) return;  // the socket closes as it goes out of scope
+        std::shared_ptr<Connection> evict;
+        if (connections.size() >= options.maxConnections) evict = evictionCandidate();
+        if (evict) {
+            ++evicted;
+            log().warn("%zu clients (the limit): a connection %s makes room for a new one", connections.size(),
+                       evict->saidHello() ? "idle the longest" : "that has not said HELLO");
+            asio::post(evict->executor(), [evict] { evict->close("evicted to make room (the connection limit)"); });
+            connections.erase(std::find_if(connections.begin(), connections.end(), [&](const auto& entry) {
+                                  return entry.second.lock() == evict;
+                              }));
+        }
+        if (connections.size() >= options.maxConnections) {
+            ++rejected;
+            log().warn("connection refused: already %zu clients (the limit), none silent or idle to evict",
+                       connections.size());
+            return;
+        }
+        connection = std::make_shared<Connection>(*this, std::move(socket), ++nextId, peer, authenticate);
+        connections.emplace(nextId, connection);
+        ++accepted;
+    }
+    asio::dispatch(connection->executor(), [connection] { connection->start(); });
 }
 
 std::shared_ptr<Connection> ServerCore::evictionCandidate() {
@@ -706,6 +877,8 @@ void ServerCore::stop() {
         error_code ec;
         acceptor.close(ec);
         acceptRetry.cancel();
+        localAcceptor.close(ec);
+        localAcceptRetry.cancel();
     });
     for (auto& c : open) asio::post(c->executor(), [c] { c->close("the server is stopping"); });
     stoppedCv.notify_all();
@@ -729,7 +902,16 @@ void ServerCore::wait() {
     io.stop();
     for (auto& t : threads) t.join();
     threads.clear();
+    removeSocketFile();
     log().notice("stopped");
+}
+
+void ServerCore::removeSocketFile() {
+    if (socketInode == 0) return;
+    struct stat st {};
+    if (::lstat(options.unixSocketPath.c_str(), &st) == 0 && st.st_dev == socketDevice && st.st_ino == socketInode)
+        ::unlink(options.unixSocketPath.c_str());
+    socketInode = 0;
 }
 
 TauNetServer::TauNetServer(VisionInterface& vision, TauNetOptions options) {
@@ -743,8 +925,11 @@ TauNetServer::~TauNetServer() {
     wait();
 }
 
-std::string TauNetServer::address() const { return impl_->endpoint.address().to_string(); }
-std::uint16_t TauNetServer::port() const { return impl_->endpoint.port(); }
+std::string TauNetServer::address() const {
+    return impl_->listensTcp ? impl_->endpoint.address().to_string() : std::string();
+}
+std::uint16_t TauNetServer::port() const { return impl_->listensTcp ? impl_->endpoint.port() : 0; }
+std::string TauNetServer::unixSocketPath() const { return impl_->options.unixSocketPath; }
 void TauNetServer::stop() { impl_->stop(); }
 void TauNetServer::wait() { impl_->wait(); }
 
@@ -768,6 +953,7 @@ TauNetStats TauNetServer::stats() const {
     s.helloTimeouts = impl_->helloTimeouts;
     s.sessionTimeouts = impl_->sessionTimeouts;
     s.evicted = impl_->evicted;
+    s.authFailures = impl_->authFailures;
     return s;
 }
 

@@ -1,5 +1,7 @@
 #include <avatar/tau/Protocol.h>
 
+#include <avatar/tau/Authentication.h>
+
 #include <array>
 #include <cstring>
 #include <utility>
@@ -159,6 +161,7 @@ std::string messageName(std::uint16_t type) {
         case MessageType::GetConfig: name = "GET_CONFIG"; break;
         case MessageType::GetImages: name = "GET_IMAGES"; break;
         case MessageType::Status: name = "STATUS"; break;
+        case MessageType::Authenticate: name = "AUTHENTICATE"; break;
         case MessageType::Error: name = "ERROR"; break;
     }
     if (!name) {
@@ -183,13 +186,16 @@ const char* errorName(ErrorCode code) {
         case ErrorCode::NotAvailable: return "NOT_AVAILABLE";
         case ErrorCode::InvalidState: return "INVALID_STATE";
         case ErrorCode::Internal: return "INTERNAL";
+        case ErrorCode::AuthenticationRequired: return "AUTHENTICATION_REQUIRED";
+        case ErrorCode::AuthenticationFailed: return "AUTHENTICATION_FAILED";
     }
     return "UNKNOWN_ERROR";
 }
 
 bool closesConnection(ErrorCode code) {
     return code == ErrorCode::MalformedFrame || code == ErrorCode::FrameTooLarge ||
-           code == ErrorCode::HelloRequired || code == ErrorCode::VersionUnsupported;
+           code == ErrorCode::HelloRequired || code == ErrorCode::VersionUnsupported ||
+           code == ErrorCode::AuthenticationRequired || code == ErrorCode::AuthenticationFailed;
 }
 
 std::vector<std::uint8_t> encodeFrame(std::uint16_t type, std::uint32_t request,
@@ -274,6 +280,21 @@ std::vector<std::uint8_t> encode(const HelloReply& m) {
     w.u16(m.version);
     w.str(m.serverName);
     w.str(m.backend);
+    if (m.version >= kAuthenticatingVersion) {
+        w.u8(m.authenticationRequired ? 1 : 0);
+        w.bytes(m.challenge);
+    }
+    return w.take();
+}
+std::vector<std::uint8_t> encode(const Authenticate& m) {
+    Writer w;
+    w.bytes(m.nonce);
+    w.bytes(m.mac);
+    return w.take();
+}
+std::vector<std::uint8_t> encode(const AuthenticateReply& m) {
+    Writer w;
+    w.bytes(m.mac);
     return w.take();
 }
 std::vector<std::uint8_t> encode(const TakeSnapshot& m) {
@@ -431,6 +452,42 @@ HelloReply decodeHelloReply(const std::vector<std::uint8_t>& payload) {
     m.version = r.u16("version");
     m.serverName = r.str("serverName");
     m.backend = r.str("backend");
+    if (m.version >= kAuthenticatingVersion) {
+        const std::uint8_t required = r.u8("authentication");
+        if (required > 1) r.fail("authentication: " + std::to_string(required) + " is not 0 or 1");
+        m.authenticationRequired = required == 1;
+        m.challenge = r.bytes("challenge");
+        if (!m.challenge.empty() && m.challenge.size() != kChallengeSize)
+            r.fail("challenge: " + std::to_string(m.challenge.size()) + " bytes, not 0 or " +
+                   std::to_string(kChallengeSize));
+        if (m.authenticationRequired && m.challenge.empty())
+            r.fail("challenge: empty although authentication is required");
+    }
+    r.end();
+    return m;
+}
+
+namespace {
+std::vector<std::uint8_t> exactBytes(Reader& r, const char* field, std::size_t size) {
+    std::vector<std::uint8_t> b = r.bytes(field);
+    if (b.size() != size)
+        r.fail(std::string(field) + ": " + std::to_string(b.size()) + " bytes, not " + std::to_string(size));
+    return b;
+}
+}  // namespace
+
+Authenticate decodeAuthenticate(const std::vector<std::uint8_t>& payload) {
+    Reader r(payload, "AUTHENTICATE");
+    Authenticate m;
+    m.nonce = exactBytes(r, "nonce", kChallengeSize);
+    m.mac = exactBytes(r, "mac", kMacSize);
+    r.end();
+    return m;
+}
+AuthenticateReply decodeAuthenticateReply(const std::vector<std::uint8_t>& payload) {
+    Reader r(payload, "AUTHENTICATE_REPLY");
+    AuthenticateReply m;
+    m.mac = exactBytes(r, "mac", kMacSize);
     r.end();
     return m;
 }
@@ -536,7 +593,7 @@ ErrorReply decodeErrorReply(const std::vector<std::uint8_t>& payload) {
     Reader r(payload, "ERROR");
     ErrorReply m;
     const std::uint16_t code = r.u16("code");
-    if (code < 1 || code > 12) r.fail("code " + std::to_string(code) + " is not 1..12");
+    if (code < 1 || code > 14) r.fail("code " + std::to_string(code) + " is not 1..14");
     m.code = static_cast<ErrorCode>(code);
     m.message = r.str("message");
     r.end();

@@ -8,6 +8,7 @@
 
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
+#include <avatar/tau/Authentication.h>
 #include <avatar/tau/TauUnit.h>
 
 #include <boost/program_options.hpp>
@@ -168,6 +169,8 @@ int main(int argc, char** argv) {
         ("help,h", "show this help and the script commands")
         ("host", po::value<std::string>()->default_value("127.0.0.1"), "TAUNet's host")
         ("port,p", po::value<unsigned>()->default_value(7010), "TAUNet's port")
+        ("unix-socket", po::value<std::string>(), "connect to TAUNet's Unix-domain socket instead of --host/--port")
+        ("auth-key", po::value<std::string>(), "file with TAUNet's authentication key (chmod 600); both sides prove it")
         ("out,o", po::value<std::string>()->default_value("tautui-out"), "directory for images and configurations")
         ("refresh-ms", po::value<int>()->default_value(500), "screen refresh period (interactive), 50..60000 ms")
         ("timeout-ms", po::value<int>()->default_value(5000), "limit for each request, ms")
@@ -203,6 +206,8 @@ int main(int argc, char** argv) {
         o.host = vm["host"].as<std::string>();
         o.port = static_cast<std::uint16_t>(port);
         o.clientName = "tautui";
+        if (vm.count("unix-socket")) o.unixSocket = vm["unix-socket"].as<std::string>();
+        if (vm.count("auth-key")) o.authKey = tau::readAuthKeyFile(vm["auth-key"].as<std::string>());
         o.requestTimeout = std::chrono::milliseconds(vm["timeout-ms"].as<int>());
         o.connectTimeout = std::min(o.requestTimeout, std::chrono::milliseconds(2000));
         o.snapshotTimeout = std::chrono::milliseconds(vm["snapshot-timeout-ms"].as<int>());

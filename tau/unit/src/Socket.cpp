@@ -10,6 +10,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 namespace avatar::tau::detail {
@@ -101,6 +102,29 @@ Socket Socket::connect(const std::string& host, std::uint16_t port, Clock::time_
     ::freeaddrinfo(list);
     if (timedOut) throw SocketTimeout(lastError);
     throw SocketFailure(lastError);
+}
+
+Socket Socket::connectUnix(const std::string& path, Clock::time_point deadline) {
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    if (path.empty() || path.size() >= sizeof address.sun_path)
+        throw SocketFailure("a Unix-domain socket path must have 1 to " + std::to_string(sizeof address.sun_path - 1) +
+                            " bytes");
+    std::memcpy(address.sun_path, path.data(), path.size());
+    Socket s(::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0));
+    if (!s.isOpen()) throw SocketFailure(systemError("socket", errno));
+    for (;;) {
+        if (::connect(s.fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0) return s;
+        if (errno == EINTR) continue;
+        if (errno != EAGAIN && errno != EINPROGRESS) throw SocketFailure(systemError("connect", errno));
+        // The server's backlog is full: wait for room, then look at the outcome.
+        s.waitFor(POLLOUT, deadline, "connection");
+        int err = 0;
+        socklen_t len = sizeof err;
+        if (::getsockopt(s.fd_, SOL_SOCKET, SO_ERROR, &err, &len) != 0) err = errno;
+        if (err == 0) return s;
+        if (err != EAGAIN) throw SocketFailure(systemError("connect", err));
+    }
 }
 
 void Socket::sendAll(const std::uint8_t* data, std::size_t size, Clock::time_point deadline) {

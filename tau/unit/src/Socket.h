@@ -33,6 +33,8 @@ public:
 
     /// Resolves @p host and connects to the first address that accepts.
     static Socket connect(const std::string& host, std::uint16_t port, Clock::time_point deadline);
+    /// Connects to the Unix-domain socket at @p path.
+    static Socket connectUnix(const std::string& path, Clock::time_point deadline);
 
     bool isOpen() const { return fd_ >= 0; }
     void close();

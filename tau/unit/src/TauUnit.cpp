@@ -3,6 +3,7 @@
 #include "Socket.h"
 
 #include <avatar/common/Logging.h>
+#include <avatar/tau/Authentication.h>
 
 #include <log4cpp/Category.hh>
 #include <opencv2/imgcodecs.hpp>
@@ -44,8 +45,15 @@ bool TauUnitOptions::isValid(std::string* error) const {
         if (error) *error = why;
         return false;
     };
-    if (host.empty()) return fail("host is empty");
-    if (port == 0) return fail("port is 0");
+    if (unixSocket.empty()) {
+        if (host.empty()) return fail("host is empty");
+        if (port == 0) return fail("port is 0");
+    } else if (unixSocket.size() > 107) {
+        return fail("unixSocket is longer than the 107 bytes a socket path may have");
+    }
+    if (!authKey.empty() && authKey.size() < kMinAuthKeySize)
+        return fail("authKey has " + std::to_string(authKey.size()) + " bytes; at least " +
+                    std::to_string(kMinAuthKeySize) + " are needed");
     if (connectTimeout.count() <= 0) return fail("connectTimeout must be positive");
     if (requestTimeout.count() <= 0) return fail("requestTimeout must be positive");
     if (snapshotTimeout.count() <= 0 || snapshotTimeout.count() > 0xFFFFFFFFLL)
@@ -62,6 +70,9 @@ TauError::TauError(ErrorCode code, std::string serverMessage, const std::string&
 ConnectionError::ConnectionError(std::string endpoint, std::string request, const std::string& what)
     : avatar::Error(what), endpoint_(std::move(endpoint)), request_(std::move(request)) {}
 
+AuthenticationError::AuthenticationError(std::string endpoint, const std::string& what)
+    : avatar::Error(what), endpoint_(std::move(endpoint)) {}
+
 const TauImage* TauImages::side(Side s) const {
     for (const TauImage& i : images)
         if (i.side == s) return &i;
@@ -74,6 +85,7 @@ const char* toString(Outcome outcome) {
         case Outcome::ServerError: return "server-error";
         case Outcome::Timeout: return "timeout";
         case Outcome::ConnectionFailed: return "connection-failed";
+        case Outcome::AuthenticationFailed: return "authentication-failed";
     }
     return "?";
 }
@@ -94,6 +106,7 @@ public:
     std::deque<ActionTiming> timings;
 
     std::string endpoint() const {
+        if (!options.unixSocket.empty()) return "unix:" + options.unixSocket;
         const bool v6 = options.host.find(':') != std::string::npos;
         return (v6 ? "[" + options.host + "]" : options.host) + ":" + std::to_string(options.port);
     }
@@ -101,6 +114,10 @@ public:
     [[noreturn]] void connectionFailed(const std::string& request, const std::string& why) {
         close();
         throw ConnectionError(endpoint(), request, "TAUNet " + endpoint() + ": " + request + ": " + why);
+    }
+    [[noreturn]] void authenticationFailed(const std::string& why) {
+        close();
+        throw AuthenticationError(endpoint(), "TAUNet " + endpoint() + ": HELLO: authentication: " + why);
     }
     [[noreturn]] void timedOut(const std::string& request, const std::string& why) {
         throw TimeoutError(endpoint(), request, "TAUNet " + endpoint() + ": " + request + ": " + why);
@@ -193,7 +210,8 @@ public:
     HelloReply handshake() {
         const auto deadline = Clock::now() + options.connectTimeout;
         try {
-            socket = detail::Socket::connect(options.host, options.port, deadline);
+            socket = options.unixSocket.empty() ? detail::Socket::connect(options.host, options.port, deadline)
+                                                : detail::Socket::connectUnix(options.unixSocket, deadline);
         } catch (const detail::SocketTimeout& e) {
             close();
             timedOut("HELLO", std::string("cannot connect: ") + e.what());
@@ -220,10 +238,48 @@ public:
         if (reply.version != kProtocolVersion)
             connectionFailed("HELLO", "the server answered protocol version " + std::to_string(reply.version) +
                                           " to a version " + std::to_string(kProtocolVersion) + " HELLO");
+        if (!options.authKey.empty()) {
+            authenticate(reply.challenge, deadline);
+        } else if (reply.authenticationRequired) {
+            authenticationFailed("the server requires it and no key is set (TauUnitOptions::authKey)");
+        }
         hello = reply;
         log().infoStream() << "connected to " << reply.serverName << " at " << endpoint() << " (protocol "
-                           << reply.version << ", backend " << reply.backend << ")";
+                           << reply.version << ", backend " << reply.backend
+                           << (options.authKey.empty() ? "" : ", authenticated both ways") << ")";
         return reply;
+    }
+
+    /// AUTHENTICATE (docs/protocol.md, "Authentication"): proves the key on
+    /// the server's @p challenge and checks the server's proof in return.
+    void authenticate(const std::vector<std::uint8_t>& challenge, Clock::time_point deadline) {
+        if (challenge.empty())
+            authenticationFailed("the server has no key, so it cannot prove it is the daemon the key belongs to");
+        const std::vector<std::uint8_t> nonce = randomBytes(kChallengeSize);
+        Attempt attempt;
+        std::uint32_t id = 0;
+        std::vector<std::uint8_t> payload;
+        try {
+            payload = exchange(MessageType::Authenticate,
+                               encode(Authenticate{nonce, clientProof(options.authKey, challenge, nonce)}), deadline,
+                               id, attempt);
+        } catch (const TimeoutError&) {
+            close();
+            throw;
+        } catch (const TauError& e) {
+            if (e.code() == ErrorCode::AuthenticationFailed)
+                authenticationFailed("the server refused the key: " + e.serverMessage());
+            close();
+            throw;
+        }
+        AuthenticateReply reply;
+        try {
+            reply = decodeAuthenticateReply(payload);
+        } catch (const ProtocolError& e) {
+            connectionFailed("AUTHENTICATE", std::string("reply does not follow the protocol: ") + e.what());
+        }
+        if (!macsEqual(serverProof(options.authKey, challenge, nonce), reply.mac))
+            authenticationFailed("the server's proof does not match the key: it is not the daemon the key belongs to");
     }
 
     /// Runs HELLO as a logged action.
@@ -249,6 +305,9 @@ public:
             throw;
         } catch (const TauError& e) {
             finish(Outcome::ServerError, std::string(errorName(e.code())) + ": " + e.serverMessage());
+            throw;
+        } catch (const AuthenticationError& e) {
+            finish(Outcome::AuthenticationFailed, e.what());
             throw;
         }
     }
@@ -280,6 +339,8 @@ public:
                         throw ConnectionError(e.endpoint(), name, std::string(e.what()) + " (before " + name + ")");
                     } catch (const TauError& e) {
                         throw TauError(e.code(), e.serverMessage(), std::string(e.what()) + " (before " + name + ")");
+                    } catch (const AuthenticationError& e) {
+                        throw AuthenticationError(e.endpoint(), std::string(e.what()) + " (before " + name + ")");
                     }
                 }
                 const auto reply = exchange(type, payload, Clock::now() + timeout, entry.requestId, attempt);
@@ -305,6 +366,9 @@ public:
                 std::this_thread::sleep_for(options.retry.delay);
             } catch (const TauError& e) {
                 finish(Outcome::ServerError, std::string(errorName(e.code())) + ": " + e.serverMessage());
+                throw;
+            } catch (const AuthenticationError& e) {
+                finish(Outcome::AuthenticationFailed, e.what());
                 throw;
             }
         }

@@ -1,7 +1,7 @@
 #pragma once
 /// @file TauNetServer.h
-/// TAUNet (thesis 4.3.2): the TAU protocol (docs/protocol.md) served over TCP,
-/// a thin adapter over one VisionInterface. Sockets, threads and the protocol
+/// TAUNet (thesis 4.3.2): the TAU protocol (docs/protocol.md) served over TCP
+/// and/or a Unix-domain socket, a thin adapter over one VisionInterface. Sockets, threads and the protocol
 /// stay in here; the vision layer knows nothing of them.
 ///
 /// Threads: one or more network threads (Boost.Asio; every connection's
@@ -21,8 +21,14 @@
 /// sessionIdleTimeout close the connection; at maxConnections the silent or
 /// idlest connection makes room for a new one.
 ///
-/// Error policy: construction throws avatar::InvalidArgument (bad options) or
-/// avatar::IoError (the address cannot be bound). Once running, nothing a
+/// Access: with an authentication key every TCP connection must prove it
+/// (protocol version 3's AUTHENTICATE) before any other request; listening
+/// beyond loopback without a key is refused. On the Unix-domain socket the
+/// file's permissions decide who may connect, and no proof is asked.
+///
+/// Error policy: construction throws avatar::InvalidArgument (bad options, or
+/// an address beyond loopback without a key) or avatar::IoError (the address
+/// cannot be bound). Once running, nothing a
 /// client does throws: protocol errors are answered on the wire as
 /// docs/protocol.md says and logged (log4cpp category "avatar.taunet").
 
@@ -40,13 +46,27 @@ namespace avatar::tau {
 
 /// How the server listens and its limits. Defaults suit the vision computer.
 struct TauNetOptions {
-    /// Address to listen on. The default accepts local clients only; listening
-    /// on another interface must be asked for explicitly ("0.0.0.0", "::", an address).
+    /// TCP address to listen on. The default accepts local clients only;
+    /// listening on another interface must be asked for explicitly ("0.0.0.0",
+    /// "::", an address) and needs authKey. Empty: no TCP (unixSocketPath then
+    /// must be set).
     std::string listenAddress{"127.0.0.1"};
     /// TCP port; 0 picks a free one (see TauNetServer::port()).
     std::uint16_t port{7010};
     /// Sent in HELLO_REPLY.
     std::string serverName{"TAUNet"};
+    /// The shared secret (readAuthKeyFile(), at least kMinAuthKeySize bytes)
+    /// every TCP client must prove it knows; empty: no authentication, which
+    /// is allowed on loopback addresses only.
+    std::string authKey;
+    /// A Unix-domain socket to listen on as well (empty: none). A stale socket
+    /// file is replaced; any other file in the way, or a live server on it, is
+    /// an error. The file is removed when the server stops.
+    std::string unixSocketPath;
+    /// Permissions of the socket file, set before the server listens on it:
+    /// they decide who may connect (write permission is needed). Default: the
+    /// service's user only.
+    unsigned unixSocketMode{0600};
     /// Network threads (>= 1).
     std::size_t networkThreads{1};
     /// Threads for blocking requests (>= 1). More concurrent blocking requests
@@ -97,6 +117,7 @@ struct TauNetStats {
     std::uint64_t helloTimeouts{0};     ///< disconnected: no HELLO in time
     std::uint64_t sessionTimeouts{0};   ///< disconnected: no request for sessionIdleTimeout
     std::uint64_t evicted{0};           ///< disconnected to make room at maxConnections
+    std::uint64_t authFailures{0};      ///< AUTHENTICATE with a wrong proof (each closed)
 };
 
 class TauNetServer {
@@ -110,10 +131,12 @@ public:
     TauNetServer(const TauNetServer&) = delete;
     TauNetServer& operator=(const TauNetServer&) = delete;
 
-    /// The address and port actually listened on (port() is the chosen one when
-    /// the options asked for 0).
+    /// The TCP address and port actually listened on (port() is the chosen one
+    /// when the options asked for 0); "" and 0 without TCP.
     std::string address() const;
     std::uint16_t port() const;
+    /// The Unix-domain socket listened on, or "" without one.
+    std::string unixSocketPath() const;
 
     /// Stops accepting and closes every connection (replies in progress are
     /// dropped). Does not touch the VisionInterface; its owner stops it.

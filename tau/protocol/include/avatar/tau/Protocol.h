@@ -1,6 +1,7 @@
 #pragma once
 /// @file Protocol.h
-/// The TAU protocol, version 2 (docs/protocol.md; version 1 is still served): frames, messages and their
+/// The TAU protocol, version 3 (docs/protocol.md; versions 1 and 2 are still served where no
+/// authentication is required): frames, messages and their
 /// byte encodings, shared by TAUNet and TAUUnit. Pure data and functions: no
 /// sockets, no threads, no analysis types beyond the plain result records.
 ///
@@ -19,9 +20,12 @@
 namespace avatar::tau {
 
 /// The version this build speaks by default (TAUUnit asks for it).
-inline constexpr std::uint16_t kProtocolVersion = 2;
+inline constexpr std::uint16_t kProtocolVersion = 3;
+/// The first version with authentication (HELLO_REPLY's challenge, AUTHENTICATE).
+inline constexpr std::uint16_t kAuthenticatingVersion = 3;
 /// The oldest version a server still serves. Version 1 differs in the Target
-/// record only (docs/protocol.md, "Version 1").
+/// record only (docs/protocol.md, "Version 1"); versions 1 and 2 have no
+/// authentication and are refused where it is required.
 inline constexpr std::uint16_t kOldestProtocolVersion = 1;
 /// True for the versions this build speaks.
 constexpr bool protocolVersionSupported(std::uint16_t version) {
@@ -42,6 +46,7 @@ enum class MessageType : std::uint16_t {
     GetConfig = 0x0007,
     GetImages = 0x0008,
     Status = 0x0009,
+    Authenticate = 0x000A,  ///< version 3
     Error = 0xFFFF
 };
 inline constexpr std::uint16_t kReplyBit = 0x8000;
@@ -62,7 +67,9 @@ enum class ErrorCode : std::uint16_t {
     Timeout = 9,
     NotAvailable = 10,
     InvalidState = 11,
-    Internal = 12
+    Internal = 12,
+    AuthenticationRequired = 13,  ///< a request before AUTHENTICATE where it is required
+    AuthenticationFailed = 14     ///< AUTHENTICATE's proof is wrong
 };
 /// "MALFORMED_FRAME", ...
 const char* errorName(ErrorCode code);
@@ -127,6 +134,20 @@ struct HelloReply {
     std::uint16_t version{kProtocolVersion};
     std::string serverName;
     std::string backend;
+    // Version 3 only (not encoded for versions 1 and 2):
+    /// The connection must AUTHENTICATE before any other request.
+    bool authenticationRequired{false};
+    /// kChallengeSize fresh random bytes when the server has a key, else empty.
+    std::vector<std::uint8_t> challenge;
+};
+/// Version 3: the client's proof of the key (docs/protocol.md, "Authentication").
+struct Authenticate {
+    std::vector<std::uint8_t> nonce;  ///< kChallengeSize random bytes chosen by the client
+    std::vector<std::uint8_t> mac;    ///< clientProof(key, challenge, nonce)
+};
+/// Version 3: the server's proof of the key.
+struct AuthenticateReply {
+    std::vector<std::uint8_t> mac;  ///< serverProof(key, challenge, nonce)
 };
 struct TakeSnapshot {
     std::uint32_t timeoutMs{10000};
@@ -196,7 +217,10 @@ struct ErrorReply {
 // check it is consumed exactly and every value is in range, and throw
 // ProtocolError(BadPayload, "<message name>: <what is wrong>") otherwise.
 std::vector<std::uint8_t> encode(const Hello& m);
+/// In the layout of m.version (the authentication fields from version 3 on).
 std::vector<std::uint8_t> encode(const HelloReply& m);
+std::vector<std::uint8_t> encode(const Authenticate& m);
+std::vector<std::uint8_t> encode(const AuthenticateReply& m);
 std::vector<std::uint8_t> encode(const TakeSnapshot& m);
 std::vector<std::uint8_t> encode(const SendConfig& m);
 std::vector<std::uint8_t> encode(const ConfigApplied& m);
@@ -223,7 +247,10 @@ std::size_t encodedSize(const ImagesReply& m);
 std::optional<std::uint16_t> helloVersion(const std::vector<std::uint8_t>& payload);
 
 Hello decodeHello(const std::vector<std::uint8_t>& payload);
+/// In the layout of the version it starts with.
 HelloReply decodeHelloReply(const std::vector<std::uint8_t>& payload);
+Authenticate decodeAuthenticate(const std::vector<std::uint8_t>& payload);
+AuthenticateReply decodeAuthenticateReply(const std::vector<std::uint8_t>& payload);
 TakeSnapshot decodeTakeSnapshot(const std::vector<std::uint8_t>& payload);
 SendConfig decodeSendConfig(const std::vector<std::uint8_t>& payload);
 ConfigApplied decodeConfigApplied(const std::vector<std::uint8_t>& payload);

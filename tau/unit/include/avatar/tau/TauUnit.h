@@ -13,8 +13,11 @@
 ///   a rejected configuration is the subclass ConfigRejectedError;
 /// - the connection could not be made, broke, or the server sent bytes that do
 ///   not follow the protocol: ConnectionError;
-/// - no reply within the limit: TimeoutError (a ConnectionError).
-/// Every message names host:port and the request. "No data yet" is the server's
+/// - no reply within the limit: TimeoutError (a ConnectionError);
+/// - the key does not fit (the server refused it, or the server could not
+///   prove it has it), or the server needs a key and none is set:
+///   AuthenticationError (never retried).
+/// Every message names the endpoint (host:port or unix:PATH) and the request. "No data yet" is the server's
 /// NOT_AVAILABLE, a TauError.
 
 #include <avatar/common/Error.h>
@@ -47,6 +50,15 @@ struct RetryPolicy {
 struct TauUnitOptions {
     std::string host{"127.0.0.1"};
     std::uint16_t port{0};
+    /// A Unix-domain socket to connect to instead of host:port (TAUNet
+    /// --unix-socket); empty: TCP.
+    std::string unixSocket;
+    /// The shared secret (readAuthKeyFile() of the daemon's key file). With a
+    /// key the client proves it in every HELLO and checks the server's proof,
+    /// so it also knows it talks to the daemon the key belongs to; a server
+    /// without a key is then an AuthenticationError. Empty: no authentication
+    /// (enough for a loopback daemon without a key, or a Unix-domain socket).
+    std::string authKey;
     /// Sent in HELLO; TAUNet logs it.
     std::string clientName{"tauunit"};
     /// Limit for establishing the TCP connection and for the HELLO reply.
@@ -104,6 +116,19 @@ public:
     using ConnectionError::ConnectionError;
 };
 
+/// The key and the server do not fit: it refused the client's proof, its own
+/// proof is wrong (not the daemon the key belongs to), it has no key while the
+/// client has one, or it requires one the client does not have. The
+/// connection is closed; retrying cannot help.
+class AuthenticationError : public avatar::Error {
+public:
+    AuthenticationError(std::string endpoint, const std::string& what);
+    const std::string& endpoint() const { return endpoint_; }
+
+private:
+    std::string endpoint_;
+};
+
 /// Images as TAUNet sent them: the JPEG bytes and their decoding.
 struct TauImage {
     Side side{Side::Left};
@@ -132,8 +157,8 @@ struct TauIterations {
 };
 
 /// How one request ended.
-enum class Outcome { Ok, ServerError, Timeout, ConnectionFailed };
-/// "ok", "server-error", "timeout", "connection-failed".
+enum class Outcome { Ok, ServerError, Timeout, ConnectionFailed, AuthenticationFailed };
+/// "ok", "server-error", "timeout", "connection-failed", "authentication-failed".
 const char* toString(Outcome outcome);
 
 /// One entry of the action log (thesis 4.3.3).
@@ -166,7 +191,7 @@ public:
     /// The server's HELLO reply of the current connection.
     std::optional<HelloReply> server() const;
     const TauUnitOptions& options() const;
-    /// "host:port".
+    /// "host:port", or "unix:PATH".
     std::string endpoint() const;
 
     // ---- requests (docs/protocol.md) -------------------------------------
