@@ -17,27 +17,55 @@ log4cpp::Category& logger() { return logging::category("acquire"); }
 
 SessionLogSink::SessionLogSink(std::filesystem::path sessionDirectory, Compression compression,
                                ByteOrder rawByteOrder)
-    : writer_(std::move(sessionDirectory)), compression_(compression), byteOrder_(rawByteOrder) {}
+    : base_(std::move(sessionDirectory)),
+      writer_(std::make_unique<SessionLogWriter>(base_)),
+      sessions_{base_},
+      compression_(compression),
+      byteOrder_(rawByteOrder) {}
+
+void SessionLogSink::continueInNewSession() {
+    namespace fs = std::filesystem;
+    for (unsigned part = 2;; ++part) {
+        const fs::path next = base_.string() + ".part" + std::to_string(part);
+        std::error_code ec;
+        if (fs::exists(next, ec) || ec) continue;  // never write into something that is there
+        try {
+            writer_ = std::make_unique<SessionLogWriter>(next);
+        } catch (const Error& e) {
+            // No room yet: leave nothing behind, try again with the next pair.
+            fs::remove_all(next, ec);
+            throw IoError("session " + writer_->directory().string() +
+                          " cannot take more records and no new session can be started yet: " + e.what());
+        }
+        sessions_.push_back(next);
+        logger().notice("session %s cannot take more records (its log could not be written); recording continues in %s",
+                        base_.string().c_str(), next.string().c_str());
+        return;
+    }
+}
 
 PairFiles SessionLogSink::writePair(const StereoImagePair& pair) {
-    return writer_.writePair(pair, compression_, byteOrder_);
+    if (writer_->failed()) continueInNewSession();
+    return writer_->writePair(pair, compression_, byteOrder_);
 }
 
 void SessionLogSink::append(const SessionRecord& record) {
     try {
-        writer_.append(record);
+        writer_->append(record);
     } catch (...) {
         // No record will name them: remove the pair's images rather than leave orphans.
         for (const ImageFileRef* file : {&record.files.left, &record.files.right}) {
             if (file->name.empty()) continue;
             std::error_code ec;
-            std::filesystem::remove(writer_.directory() / file->name, ec);
+            std::filesystem::remove(writer_->directory() / file->name, ec);
         }
         throw;
     }
 }
 
-std::string SessionLogSink::describe() const { return writer_.directory().string(); }
+std::string SessionLogSink::describe() const { return writer_->directory().string(); }
+
+bool SessionLogSink::atSessionStart() const { return writer_->recordCount() == 0; }
 
 // ---------------------------------------------------------------------------
 // SessionRecorder
@@ -162,10 +190,12 @@ void SessionRecorder::write(Item& item) {
         record.iteration = item.iteration;
         record.acquisition = item.pair.id();
         record.configVersion = item.configVersion;
+        record.result = std::move(item.result);
+        record.files = sink_->writePair(item.pair);  // may start a new session (SessionLogSink)
+        // A session's first record carries the configuration, as does a record where it changed.
+        if (sink_->atSessionStart()) appendedVersion_.reset();
         const bool versionChanged = !appendedVersion_ || *appendedVersion_ != item.configVersion;
         if (item.versionXml && (item.xmlApplied || versionChanged)) record.configXml = *item.versionXml;
-        record.result = std::move(item.result);
-        record.files = sink_->writePair(item.pair);
         sink_->append(record);
         appendedVersion_ = item.configVersion;
         std::size_t unrecorded = 0;

@@ -19,10 +19,15 @@
 #include <log4cpp/StringQueueAppender.hh>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <fcntl.h>
+#include <sys/mount.h>
+#include <unistd.h>
 
 using namespace avatar;
 using namespace avatar::test;
@@ -335,4 +340,133 @@ TEST(SessionRecorder, InvalidOptionsAndNoSinkAreRefused) {
     // A session is never recorded over.
     { SessionLogSink first(dir / "b"); }
     EXPECT_THROW(SessionLogSink second(dir / "b"), IoError);
+}
+
+namespace {
+
+/// A tmpfs of @p kib KiB mounted on @p where while it lives (needs root).
+class SmallDisk {
+public:
+    SmallDisk(const fs::path& where, int kib) : where_(where) {
+        fs::create_directories(where_);
+        const std::string options = "size=" + std::to_string(kib) + "k";
+        mounted_ = ::geteuid() == 0 && ::mount("tmpfs", where_.c_str(), "tmpfs", 0, options.c_str()) == 0;
+    }
+    ~SmallDisk() {
+        if (mounted_) ::umount2(where_.c_str(), MNT_DETACH);
+    }
+    SmallDisk(const SmallDisk&) = delete;
+    SmallDisk& operator=(const SmallDisk&) = delete;
+    bool mounted() const { return mounted_; }
+
+private:
+    fs::path where_;
+    bool mounted_{false};
+};
+
+/// Writes @p file until the disk is full; returns its size.
+std::size_t fillDisk(const fs::path& file) {
+    const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) throw std::runtime_error("cannot create " + file.string());
+    const std::vector<char> block(4096, 'x');
+    std::size_t size = 0;
+    for (;;) {
+        const ssize_t n = ::write(fd, block.data(), block.size());
+        if (n <= 0) break;
+        size += static_cast<std::size_t>(n);
+    }
+    ::fsync(fd);
+    ::close(fd);
+    return size;
+}
+
+std::size_t rawFiles(const fs::path& dir) {
+    std::size_t n = 0;
+    for (const auto& entry : fs::directory_iterator(dir)) n += entry.path().extension() == ".raw" ? 1 : 0;
+    return n;
+}
+
+}  // namespace
+
+// docs/formats.md: when the session log cannot be written (disk full), that
+// session takes nothing more and recording continues in a new session
+// directory once there is room; no pair leaves images behind. On a real,
+// small tmpfs.
+TEST(SessionRecorder, AFullDiskEndsTheSessionAndRecordingResumesInANewOneWhenSpaceReturns) {
+    TempDir dir;
+    const fs::path disk = dir / "disk";
+    SmallDisk small(disk, 256);
+    if (!small.mounted()) GTEST_SKIP() << "mounting a tmpfs needs root";
+    LogCapture log;
+    const fs::path session = disk / "dive";
+    auto owned = std::make_unique<SessionLogSink>(session);
+    const SessionLogSink& sink = *owned;
+    SessionRecorder recorder(std::move(owned));
+    // A result long enough that its log line needs more than the log's last page.
+    auto longResult = [](std::uint64_t iteration, const AcquisitionId& id) {
+        VisionTargets r = fullResult(iteration, id);
+        const std::vector<VisionTarget> some = r.targets;
+        for (int i = 0; i < 40; ++i) r.targets.insert(r.targets.end(), some.begin(), some.end());
+        return r;
+    };
+    auto record = [&](std::uint32_t member, std::optional<std::string> xml) {
+        const StereoImagePair pair = pairOf(1, member, member);
+        EXPECT_TRUE(recorder.record(pair, member, 1, std::move(xml), longResult(member, pair.id())));
+        recorder.flush();
+    };
+    record(1, std::string(kConfigXmlV1));
+    ASSERT_EQ(recorder.status().recorded, 1u);
+
+    // Full, but with room for the next pair's two images (a page each) and not its line.
+    const std::size_t filled = fillDisk(disk / "filler");
+    fs::resize_file(disk / "filler", filled - 2 * 4096);
+    record(2, std::nullopt);
+    EXPECT_EQ(recorder.status().failed, 1u);
+    EXPECT_NE(recorder.status().lastError.find("No space left on device"), std::string::npos)
+        << recorder.status().lastError;
+    EXPECT_TRUE(sink.writer().failed());
+    EXPECT_EQ(rawFiles(session), 2u) << "the failed pair left images behind";
+
+    // Still full: no new session can start; nothing is left behind trying.
+    fillDisk(disk / "filler2");
+    record(3, std::nullopt);
+    EXPECT_EQ(recorder.status().failed, 2u);
+    EXPECT_NE(recorder.status().lastError.find("cannot take more records and no new session can be started yet"),
+              std::string::npos)
+        << recorder.status().lastError;
+    EXPECT_FALSE(fs::exists(session.string() + ".part2"));
+
+    // Space returns: the next pair starts the new session, carrying the configuration.
+    fs::remove(disk / "filler");
+    fs::remove(disk / "filler2");
+    record(4, std::nullopt);
+    const SessionRecorderStatus s = recorder.status();
+    EXPECT_EQ(s.recorded, 2u);
+    EXPECT_EQ(s.failed, 2u);
+    const fs::path part2 = session.string() + ".part2";
+    ASSERT_EQ(sink.sessions(), (std::vector<fs::path>{session, part2}));
+    EXPECT_EQ(sink.describe(), part2.string());
+
+    const SessionLogReader first(session);
+    ASSERT_EQ(first.records().size(), 1u);
+    EXPECT_EQ(first.records()[0].iteration, 1u);
+    const SessionLogReader second(part2);
+    ASSERT_EQ(second.records().size(), 1u);
+    EXPECT_EQ(second.records()[0].iteration, 4u);
+    ASSERT_TRUE(second.records()[0].configXml);
+    EXPECT_EQ(*second.records()[0].configXml, kConfigXmlV1);
+    ASSERT_TRUE(second.records()[0].result);
+    EXPECT_EQ(second.records()[0].result->targets.size(), 41u * 3u);
+    EXPECT_EQ(rawFiles(part2), 2u);
+
+    std::size_t continued = 0, resumed = 0;
+    for (const std::string& m : log.messages()) {
+        if (m.find("NOTICE") != std::string::npos && m.find("recording continues in " + part2.string()) != std::string::npos)
+            ++continued;
+        if (m.find("NOTICE") != std::string::npos &&
+            m.find("recording resumed in " + part2.string() + " at iteration 4") != std::string::npos)
+            ++resumed;
+    }
+    EXPECT_EQ(continued, 1u);
+    EXPECT_EQ(resumed, 1u);
 }

@@ -117,6 +117,9 @@ public:
     const std::filesystem::path& directory() const { return directory_; }
     /// Number of records appended so far.
     std::size_t recordCount() const { return count_; }
+    /// True once writing or syncing the log failed: nothing more can be
+    /// appended to this session (its log may end in a partial line).
+    bool failed() const { return failed_; }
 
 private:
     std::filesystem::path directory_;

@@ -12,7 +12,9 @@
 /// error naming the file in status().lastError, and recording goes on with
 /// later pairs where the sink still can. A dropped or failed pair that applied
 /// a new configuration does not lose that configuration: the next recorded
-/// pair of the same version carries its XML instead.
+/// pair of the same version carries its XML instead. When the session log
+/// itself cannot be written (disk full), SessionLogSink goes on in a new
+/// session directory as soon as there is room again (docs/formats.md).
 
 #include <avatar/acquire/SessionLog.h>
 #include <avatar/common/StereoImagePair.h>
@@ -29,6 +31,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace avatar {
 
@@ -43,9 +46,16 @@ public:
     virtual void append(const SessionRecord& record) = 0;
     /// For messages: the session directory, e.g. "/data/dive-042".
     virtual std::string describe() const = 0;
+    /// True when the next append() starts a session, so its record must carry
+    /// the configuration in force. The default: only before the first record.
+    virtual bool atSessionStart() const { return false; }
 };
 
-/// The real sink: a SessionLogWriter on a new session directory.
+/// The real sink: a SessionLogWriter on a new session directory. When the log
+/// line of a pair cannot be written (disk full), that session takes nothing
+/// more, and the next pair starts a new session beside it, `<dir>.part2`
+/// (then `.part3`, ...: the first name that does not exist), retried with
+/// every pair until there is room; its first record carries the configuration.
 class SessionLogSink final : public SessionSink {
 public:
     /// Creates the session (SessionLogWriter's constructor and its errors).
@@ -53,11 +63,20 @@ public:
                             ByteOrder rawByteOrder = hostByteOrder());
     PairFiles writePair(const StereoImagePair& pair) override;
     void append(const SessionRecord& record) override;
+    /// The session being written.
     std::string describe() const override;
-    const SessionLogWriter& writer() const { return writer_; }
+    bool atSessionStart() const override;
+    const SessionLogWriter& writer() const { return *writer_; }
+    /// Every session directory started, the first one first.
+    const std::vector<std::filesystem::path>& sessions() const { return sessions_; }
 
 private:
-    SessionLogWriter writer_;
+    /// Starts the next session after a failed log (throws avatar::IoError when there is no room yet).
+    void continueInNewSession();
+
+    std::filesystem::path base_;
+    std::unique_ptr<SessionLogWriter> writer_;
+    std::vector<std::filesystem::path> sessions_;
     Compression compression_;
     ByteOrder byteOrder_;
 };
