@@ -75,11 +75,20 @@ AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
     validateConfig(config_);
     std::set<std::string, std::less<>> seen;
     const StageContext context{config_, configDir.string()};
+    // A stage list the pipeline cannot build is the configuration's fault:
+    // named at its element's line (docs/config.md).
+    const std::string stagesPath = "/avatar/analysis/stages";
     for (const std::string& name : config_.analysis.stages) {
+        if (!registry.contains(name)) {
+            std::string known;
+            for (const std::string& n : registry.names()) known += (known.empty() ? "" : ", ") + n;
+            throw configErrorAt(config_, stagesPath, "unknown analysis stage '" + name + "' (known: " + known + ")");
+        }
         std::unique_ptr<ProcessStereoImagePair> stage = registry.create(name, context);
         for (const std::string_view needed : stage->needs())
             if (!seen.count(needed))
-                throw InvalidArgument("analysis stage '" + name + "' needs '" + std::string(needed) + "' before it");
+                throw configErrorAt(config_, stagesPath,
+                                    "analysis stage '" + name + "' needs '" + std::string(needed) + "' before it");
         seen.insert(name);
         stages_.push_back(std::move(stage));
         names_.push_back(name);

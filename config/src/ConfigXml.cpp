@@ -17,6 +17,8 @@ namespace avatar {
 AvatarConfig readConfigString(const std::string& xml, const std::string& sourceName) {
     config_internal::ParsedDocument parsed = config_internal::parseDocument(xml, sourceName);
     config_internal::validate(parsed.config, config_internal::ErrorSite(sourceName, &parsed.lines));
+    parsed.config.origin.source = sourceName;
+    parsed.config.origin.lines = std::make_shared<const config_internal::LineMap>(std::move(parsed.lines));
     return std::move(parsed.config);
 }
 
@@ -45,6 +47,11 @@ std::string writeConfigString(const AvatarConfig& config) {
 void writeConfigFile(const AvatarConfig& config, const std::filesystem::path& path) {
     const std::string text = writeConfigString(config);  // validates before touching the disk
     fileutil::replaceFileAtomically(path, text, "config file");
+}
+
+ConfigError configErrorAt(const AvatarConfig& config, const std::string& elementPath, const std::string& problem) {
+    const config_internal::ErrorSite site(config.origin.source, config.origin.lines.get());
+    return ConfigError(config.origin.source, site.lineOf(elementPath), elementPath, problem);
 }
 
 void validateConfig(const AvatarConfig& config) {

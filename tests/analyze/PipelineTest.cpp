@@ -153,15 +153,17 @@ TEST(Pipeline, StageOrderAndNamesAreChecked) {
         AnalyzeStereoImagePair a(config);
         FAIL();
     } catch (const InvalidArgument& e) {
-        EXPECT_STREQ(e.what(), "analysis stage 'match' needs 'locate_features' before it");
+        // A configuration built in code: no file, no line (docs/config.md's form all the same).
+        EXPECT_STREQ(e.what(), "<memory>:0: /avatar/analysis/stages: analysis stage 'match' needs 'locate_features' before it");
     }
     config.analysis.stages = {"demosaic", "sharpen"};
     try {
         AnalyzeStereoImagePair a(config);
         FAIL();
     } catch (const InvalidArgument& e) {
-        EXPECT_STREQ(e.what(), "unknown analysis stage 'sharpen' (known: color_filter, demosaic, erode_restore, "
-                               "lighting, locate_features, match, triangulate, visibility)");
+        EXPECT_STREQ(e.what(), "<memory>:0: /avatar/analysis/stages: unknown analysis stage 'sharpen' (known: "
+                               "color_filter, demosaic, erode_restore, lighting, locate_features, match, triangulate, "
+                               "visibility)");
     }
     config.analysis.stages = {"demosaic", "demosaic"};
     EXPECT_THROW(AnalyzeStereoImagePair a(config), InvalidArgument);

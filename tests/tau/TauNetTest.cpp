@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cstring>
 
@@ -1076,6 +1077,30 @@ TEST(TauNetDaemon, AnIpv4LoopbackMappedIntoIpv6IsLoopback) {
     if (!m && log.find("cannot listen") != std::string::npos) GTEST_SKIP() << "no IPv6 here: " << log;
     ASSERT_TRUE(m) << "stdout: " << out << "\nstderr: " << log;
     EXPECT_EQ(log.find("reachable from other machines"), std::string::npos) << log;
+}
+
+// docs/config.md: a configuration file whose stage list the pipeline cannot
+// build is refused as file:line: element path: problem, like any other rule.
+TEST(TauNetDaemon, AStageListThatCannotBeBuiltNamesItsFileAndLine) {
+    const std::string errPath = ::testing::TempDir() + "taunet_stages.log";
+    const std::string file = ::testing::TempDir() + "taunet_stages.xml";
+    AvatarConfig config = readConfigFile(std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml");
+    config.analysis.stages = {"demosaic", "color_filter", "match"};
+    writeConfigFile(config, file);
+    const std::string text = slurp(file);
+    const std::string before = text.substr(0, text.find("<stages>"));
+    const int line = 1 + static_cast<int>(std::count(before.begin(), before.end(), '\n'));
+    Child child = spawnTaunet({"--backend", "simulation", "--scene", std::string(AVATAR_DATA_DIR) + "/scenes/lab.xml",
+                               "--config", file, "--port", "0"},
+                              errPath);
+    const auto status = waitExit(child.pid, 30s);
+    ::close(child.out);
+    ASSERT_TRUE(status && WIFEXITED(*status));
+    EXPECT_EQ(WEXITSTATUS(*status), 1);
+    EXPECT_NE(slurp(errPath).find("taunet: " + file + ":" + std::to_string(line) +
+                                  ": /avatar/analysis/stages: analysis stage 'match' needs 'locate_features' before it\n"),
+              std::string::npos)
+        << slurp(errPath);
 }
 
 TEST(TauNetDaemon, BackendThatCannotStartIsAClearError) {

@@ -43,6 +43,12 @@ std::string writeConfigString(const AvatarConfig& config);
 /// Writes atomically (temporary file then rename); throws avatar::IoError on failure.
 void writeConfigFile(const AvatarConfig& config, const std::filesystem::path& path);
 
+/// A ConfigError for a rule checked outside the validator, at @p elementPath
+/// of @p config: "<file>:<line>: <path>: <problem>" with the line of the
+/// element (or its nearest ancestor) when the configuration was read from a
+/// document, "<memory>:0: ..." otherwise.
+ConfigError configErrorAt(const AvatarConfig& config, const std::string& elementPath, const std::string& problem);
+
 /// Checks every field of a configuration built in code; throws ConfigError
 /// (source "<memory>", line 0) naming the first bad field by the element path
 /// it would have in a document.
