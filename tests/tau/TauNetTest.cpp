@@ -567,6 +567,77 @@ TEST(TauNet, ReplayEndsInAcquisitionFailedAndInvalidState) {
     s.u64();
     s.u64();
     EXPECT_EQ(s.u8(), 3);  // acquisition finished
+    // Idle, with the last iteration's data and the configuration still served.
+    EXPECT_EQ(Fields(c.request(kStatus, 23).payload).u8(), 0);
+    const RawFrame last = c.request(kTargets, 24);
+    ASSERT_EQ(last.type, 0x8005);
+    EXPECT_EQ(tau::decodeTargetData(last.payload, 2).iteration, records.back().iteration);
+    EXPECT_EQ(c.request(kImages, 25, imagesPayload(0, 3, 80)).type, 0x8008);
+    EXPECT_EQ(c.request(kGetConfig, 26).type, 0x8007);
+}
+
+// ---- docs/protocol.md's corners, as the daemon behaves ------------------------------
+
+TEST(TauNet, ReservedBitsWinOverOversizeAndHelloRequiredOnAFirstFrame) {
+    Daemon d;
+    Client c(d.port());
+    Bytes header;
+    put32(header, 2u << 20);  // 2 MiB: over the limit too
+    put16(header, kStatus);   // and not HELLO
+    put16(header, 4);         // reserved
+    put32(header, 77);
+    ASSERT_TRUE(c.send(header));
+    const RawFrame f = c.next();
+    EXPECT_EQ(errorCode(f), 1) << errorMessage(f);  // MALFORMED_FRAME
+    EXPECT_EQ(f.request, 0u);
+    EXPECT_TRUE(c.closedWithin(5s));
+}
+
+TEST(TauNet, ClientNamesAreBytesNotCheckedAsUtf8) {
+    Daemon d;
+    Client c(d.port());
+    const RawFrame f = c.request(kHello, 1, helloPayload(3, std::string("arm \xff\xfe\xc3")));
+    EXPECT_EQ(f.type, 0x8001);
+    EXPECT_EQ(c.request(kStatus, 2).type, 0x8009);
+}
+
+TEST(TauNet, ConfigVersionCountsEveryConfigurationPutInForce) {
+    Daemon d;
+    Client c(d.port());
+    c.hello();
+    Fields config(c.request(kGetConfig, 2).payload);
+    config.u32();
+    config.u64();
+    const std::string xml = config.str();
+    auto versionOf = [](const RawFrame& f) { return Fields(f.payload).u32(); };
+    EXPECT_EQ(versionOf(c.request(kSendConfig, 3, strPayload(xml))), 2u);  // the same document counts
+    EXPECT_EQ(errorCode(c.request(kSendConfig, 4, strPayload("<avatar version=\"1\"/>"))), 7);  // rejected: not
+    EXPECT_EQ(versionOf(c.request(kSendConfig, 5, strPayload(xml))), 3u);
+    Fields status(c.request(kStatus, 6).payload);
+    status.u8();
+    status.str();
+    status.u64();
+    status.u64();
+    EXPECT_EQ(status.u32(), 3u);
+}
+
+TEST(TauNet, ATimedOutSnapshotStillUsesUpAReplayPair) {
+    const std::filesystem::path session = std::filesystem::path(AVATAR_DATA_DIR) / "sessions" / "lab";
+    auto replay = std::make_unique<RawDataAcquire>(session);
+    const auto records = replay->reader().records();
+    ASSERT_EQ(records.size(), 3u);
+    const AvatarConfig config = readConfigString(*replay->reader().configXml(records.front().configVersion));
+    Daemon d({}, std::move(replay), config, session);
+    Client c(d.port());
+    c.hello();
+    EXPECT_EQ(errorCode(c.request(kSnapshot, 1, u32Payload(0))), 9);  // TIMEOUT
+    // The loop still takes the first pair for it ...
+    ASSERT_TRUE(eventually([&] { return c.request(kTargets, 2).type == 0x8005; }, 20s));
+    EXPECT_EQ(tau::decodeTargetData(c.request(kTargets, 3).payload, 2).iteration, records[0].iteration);
+    // ... so the next snapshot gets the second.
+    const RawFrame next = c.request(kSnapshot, 4, u32Payload(30000));
+    ASSERT_EQ(next.type, 0x8004);
+    EXPECT_EQ(tau::decodeTargetData(next.payload, 2).iteration, records[1].iteration);
 }
 
 // ---- many clients, bad clients --------------------------------------------------
