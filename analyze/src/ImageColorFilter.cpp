@@ -169,7 +169,12 @@ template <typename T>
 struct RatioLimits {
     T rgLo, rgHi, rbLo, rbHi, bgLo, bgHi;  // exact replacements, see exactLimit()
     T sumLo, sumHi;                        // integer limits on R+G+B
+    bool rgOpen, rbOpen, bgOpen;           // max >= kOpenMax: +infinity (x/0) passes
 };
+
+/// A max at least this is no upper bound: it is above every finite ratio of
+/// 8- and 16-bit samples, so +infinity (a clipped denominator) passes it too.
+constexpr double kOpenMax = 65536.0;
 
 template <typename T>
 struct HsvLimits {
@@ -188,17 +193,20 @@ template <typename S, typename T>
 AVATAR_KERNEL_CLONES void ratioRow(const S* __restrict px, std::uint8_t* __restrict out, int n, const RatioLimits<T>& lim) {
     const T rgLo = lim.rgLo, rgHi = lim.rgHi, rbLo = lim.rbLo, rbHi = lim.rbHi;
     const T bgLo = lim.bgLo, bgHi = lim.bgHi, sumLo = lim.sumLo, sumHi = lim.sumHi;
+    const bool rgOpen = lim.rgOpen, rbOpen = lim.rbOpen, bgOpen = lim.bgOpen;
     for (int i = 0; i < n; ++i) {
         // Widening through int32: GCC vectorises int -> float/double, not u16 -> float.
         const T b = static_cast<T>(static_cast<std::int32_t>(px[3 * i]));
         const T g = static_cast<T>(static_cast<std::int32_t>(px[3 * i + 1]));
         const T r = static_cast<T>(static_cast<std::int32_t>(px[3 * i + 2]));
         const T sum = b + g + r;
-        // G > 0 and B > 0: a zero denominator makes R/G or B/G (or R/B) either
-        // 0/0 or +infinity, both of which fail (see the header).
-        const bool ok = (g > T(0)) & (b > T(0)) & (rgLo * g <= r) & (r <= rgHi * g) &
-                        (rbLo * b <= r) & (r <= rbHi * b) & (bgLo * g <= b) & (b <= bgHi * g) &
-                        (sum >= sumLo) & (sum <= sumHi);
+        // With a zero denominator both products are 0: lo * 0 <= num always
+        // holds (+infinity and 0/0 pass every min), num <= hi * 0 only for 0/0,
+        // and +infinity passes the max only when it is open (see the header).
+        // A black pixel (sum 0) fails.
+        const bool ok = (sum > T(0)) & (rgLo * g <= r) & ((r <= rgHi * g) | (rgOpen & (g == T(0)))) &
+                        (rbLo * b <= r) & ((r <= rbHi * b) | (rbOpen & (b == T(0)))) & (bgLo * g <= b) &
+                        ((b <= bgHi * g) | (bgOpen & (g == T(0)))) & (sum >= sumLo) & (sum <= sumHi);
         out[i] = static_cast<std::uint8_t>(ok ? 255 : 0);
     }
 }
@@ -249,21 +257,39 @@ AVATAR_KERNEL_CLONES void hsvRow(const S* __restrict px, std::uint8_t* __restric
 
 /// Everything one type needs for one image: its clipped window and its row
 /// kernel with its limits.
+/// An RGB-ratio type is one or more segments: the limits for one interval of
+/// R+G+B (a brightness band, or what lies between bands); a pixel passes when
+/// it passes the segment of its brightness. Without bands, one segment.
 struct Plan {
     cv::Rect window;
     void (*row)(const void* px, std::uint8_t* out, int n, const Plan& plan){nullptr};
-    RatioLimits<float> ratioF{};
-    RatioLimits<double> ratioD{};
+    std::vector<RatioLimits<float>> ratioF;
+    std::vector<RatioLimits<double>> ratioD;
     HsvLimits<float> hsvF{};
     HsvLimits<double> hsvD{};
+    mutable std::vector<std::uint8_t> scratch;  ///< one row of a further segment's verdicts
 };
 
 template <typename S, typename T>
 void ratioRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) {
-    if constexpr (std::is_same_v<T, float>)
-        ratioRow<S, T>(static_cast<const S*>(px), out, n, plan.ratioF);
-    else
-        ratioRow<S, T>(static_cast<const S*>(px), out, n, plan.ratioD);
+    const auto& segments = [&]() -> const std::vector<RatioLimits<T>>& {
+        if constexpr (std::is_same_v<T, float>) return plan.ratioF;
+        else return plan.ratioD;
+    }();
+    if (segments.empty()) {
+        std::memset(out, 0, static_cast<std::size_t>(n));
+        return;
+    }
+    const S* p = static_cast<const S*>(px);
+    ratioRow<S, T>(p, out, n, segments[0]);
+    if (segments.size() == 1) return;
+    plan.scratch.resize(static_cast<std::size_t>(n));
+    std::uint8_t* more = plan.scratch.data();
+    // Segments hold disjoint brightness intervals: at most one passes a pixel.
+    for (std::size_t k = 1; k < segments.size(); ++k) {
+        ratioRow<S, T>(p, more, n, segments[k]);
+        for (int i = 0; i < n; ++i) out[i] |= more[i];
+    }
 }
 
 template <typename S, typename T>
@@ -303,20 +329,51 @@ std::pair<double, double> valueLimits(const Range& v, double fullScale) {
 }
 
 template <typename T>
-RatioLimits<T> ratioLimits(const TargetType& type, std::uint32_t n) {
+RatioLimits<T> ratioLimits(const Range& rg, const Range& rb, const Range& bg, double sumLo, double sumHi,
+                           std::uint32_t n) {
     RatioLimits<T> lim{};
-    lim.rgLo = exactLimit<T>(type.redGreen.min, Bound::Lower, n);
-    lim.rgHi = exactLimit<T>(type.redGreen.max, Bound::Upper, n);
-    lim.rbLo = exactLimit<T>(type.redBlue.min, Bound::Lower, n);
-    lim.rbHi = exactLimit<T>(type.redBlue.max, Bound::Upper, n);
-    lim.bgLo = exactLimit<T>(type.blueGreen.min, Bound::Lower, n);
-    lim.bgHi = exactLimit<T>(type.blueGreen.max, Bound::Upper, n);
+    lim.rgLo = exactLimit<T>(rg.min, Bound::Lower, n);
+    lim.rgHi = exactLimit<T>(rg.max, Bound::Upper, n);
+    lim.rbLo = exactLimit<T>(rb.min, Bound::Lower, n);
+    lim.rbHi = exactLimit<T>(rb.max, Bound::Upper, n);
+    lim.bgLo = exactLimit<T>(bg.min, Bound::Lower, n);
+    lim.bgHi = exactLimit<T>(bg.max, Bound::Upper, n);
+    lim.rgOpen = rg.max >= kOpenMax;
+    lim.rbOpen = rb.max >= kOpenMax;
+    lim.bgOpen = bg.max >= kOpenMax;
+    lim.sumLo = static_cast<T>(sumLo);
+    lim.sumHi = static_cast<T>(sumHi);
+    return lim;
+}
+
+/// The segments of an RGB-ratio type: each band on its integer brightness
+/// interval, and the type's own ranges on the intervals between bands, all
+/// within the type's brightness range.
+template <typename T>
+std::vector<RatioLimits<T>> ratioSegments(const TargetType& type, std::uint32_t n) {
     const double sumMax = 3.0 * n;
     const auto [lo, hi] = type.brightness ? integerLimits(*type.brightness, sumMax)
                                           : std::pair<double, double>{0.0, sumMax};
-    lim.sumLo = static_cast<T>(lo);
-    lim.sumHi = static_cast<T>(hi);
-    return lim;
+    std::vector<RatioLimits<T>> out;
+    std::vector<std::pair<double, double>> taken;
+    for (const BrightnessBand& band : type.brightnessBands) {
+        const auto [blo, bhi] = integerLimits(band.brightness, sumMax);
+        if (blo > bhi) continue;  // holds no integer sum
+        taken.emplace_back(blo, bhi);
+        const double a = std::max(lo, blo), b = std::min(hi, bhi);
+        if (a <= b) out.push_back(ratioLimits<T>(band.redGreen, band.redBlue, band.blueGreen, a, b, n));
+    }
+    std::sort(taken.begin(), taken.end());
+    double from = lo;
+    const auto own = [&](double a, double b) {
+        if (a <= b) out.push_back(ratioLimits<T>(type.redGreen, type.redBlue, type.blueGreen, a, b, n));
+    };
+    for (const auto& [blo, bhi] : taken) {
+        own(from, std::min(hi, blo - 1.0));
+        from = std::max(from, bhi + 1.0);
+    }
+    own(from, hi);
+    return out;
 }
 
 template <typename T>
@@ -342,6 +399,8 @@ bool floatIsExact(const TargetType& type, std::uint32_t n) {
                limitIsExact<float>(neighbours(r.max, Bound::Upper, n), n);
     };
     if (type.filter == ColorFilterMethod::Hsv) return ok(type.hsv.saturation);
+    for (const BrightnessBand& b : type.brightnessBands)
+        if (!ok(b.redGreen) || !ok(b.redBlue) || !ok(b.blueGreen)) return false;
     return ok(type.redGreen) && ok(type.redBlue) && ok(type.blueGreen);
 }
 
@@ -365,10 +424,10 @@ Plan makePlan(const TargetType& type, cv::Size size, int bitDepth) {
             plan.row = &hsvRowErased<S, double>;
         }
     } else if (useFloat) {
-        plan.ratioF = ratioLimits<float>(type, n);
+        plan.ratioF = ratioSegments<float>(type, n);
         plan.row = &ratioRowErased<S, float>;
     } else {
-        plan.ratioD = ratioLimits<double>(type, n);
+        plan.ratioD = ratioSegments<double>(type, n);
         plan.row = &ratioRowErased<S, double>;
     }
     return plan;

@@ -396,9 +396,44 @@ SearchWindow readWindow(Reader& r, const XMLElement* el, const std::string& path
     return SearchWindow{s.get("x", readInt), s.get("y", readInt), s.get("width", readInt), s.get("height", readInt)};
 }
 
+BrightnessBand readBand(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"brightness", "redGreen", "redBlue", "blueGreen"});
+    return BrightnessBand{s.get("brightness", readRange), s.get("redGreen", readRange), s.get("redBlue", readRange),
+                          s.get("blueGreen", readRange)};
+}
+
+/// Elements that hold only repeated <@p item> children, addressed item[1], item[2], ...
+template <typename T, typename Read>
+std::vector<T> readList(Reader& r, const XMLElement* el, const std::string& path, std::string_view item, Read read) {
+    r.record(path, el->GetLineNum());
+    r.checkAttributes(el, path, {});
+    std::vector<T> out;
+    for (const XMLNode* n = el->FirstChild(); n != nullptr; n = n->NextSibling()) {
+        if (const XMLText* t = n->ToText()) {
+            if (!trim(t->Value()).empty()) {
+                r.fail(t->GetLineNum(), path, "unexpected text " + quote(trim(t->Value())));
+            }
+            continue;
+        }
+        const XMLElement* child = n->ToElement();
+        if (child == nullptr) {
+            continue;
+        }
+        if (std::string_view(child->Name()) != item) {
+            r.fail(child->GetLineNum(), path + "/" + child->Name(), "unknown element " + element(child->Name()));
+        }
+        out.push_back(read(r, child, path + "/" + std::string(item) + "[" + std::to_string(out.size() + 1) + "]"));
+    }
+    return out;
+}
+
+std::vector<BrightnessBand> readBands(Reader& r, const XMLElement* el, const std::string& path) {
+    return readList<BrightnessBand>(r, el, path, "band", readBand);
+}
+
 TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) {
     const Section s(r, el, path,
-                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "hsv", "erodeRestore",
+                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "hsv", "erodeRestore",
                      "erodeKernelSize", "area", "aspectRatio", "areaRatio", "window", "shape"},
                     {"name"});
     TargetType t;
@@ -417,6 +452,7 @@ TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) 
     if (s.has("brightness")) {
         t.brightness = s.get("brightness", readRange);
     }
+    s.getOptional("brightnessBands", t.brightnessBands, readBands);
     s.getIf(!rgb, "hsv", t.hsv, readHsv, "required when <filter> is hsv");
     s.getOptional("erodeRestore", t.erodeRestore, readBool);
     s.getOptional("erodeKernelSize", t.erodeKernelSize, readInt);
@@ -430,27 +466,7 @@ TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) 
 
 /// <targets> holds only <target> elements, addressed as target[1], target[2], ...
 TargetConfig readTargets(Reader& r, const XMLElement* el, const std::string& path) {
-    r.record(path, el->GetLineNum());
-    r.checkAttributes(el, path, {});
-    TargetConfig targets;
-    for (const XMLNode* n = el->FirstChild(); n != nullptr; n = n->NextSibling()) {
-        if (const XMLText* t = n->ToText()) {
-            if (!trim(t->Value()).empty()) {
-                r.fail(t->GetLineNum(), path, "unexpected text " + quote(trim(t->Value())));
-            }
-            continue;
-        }
-        const XMLElement* child = n->ToElement();
-        if (child == nullptr) {
-            continue;
-        }
-        if (std::string_view(child->Name()) != "target") {
-            r.fail(child->GetLineNum(), path + "/" + child->Name(), "unknown element " + element(child->Name()));
-        }
-        const std::string childPath = path + "/target[" + std::to_string(targets.targets.size() + 1) + "]";
-        targets.targets.push_back(readTarget(r, child, childPath));
-    }
-    return targets;
+    return TargetConfig{readList<TargetType>(r, el, path, "target", readTarget)};
 }
 
 MatchConfig readMatch(Reader& r, const XMLElement* el, const std::string& path) {

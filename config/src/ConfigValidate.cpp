@@ -235,6 +235,28 @@ void validateTarget(const Checker& k, const TargetType& t, const std::string& p)
     if (t.brightness) {
         k.range(*t.brightness, 0.0, kInf, p + "/brightness");
     }
+    if (!t.brightnessBands.empty() && t.filter != ColorFilterMethod::RgbRatio) {
+        k.fail(p + "/brightnessBands", "brightness bands need <filter> rgb_ratio");
+    }
+    if (t.brightnessBands.size() > kMaxBrightnessBands) {
+        k.fail(p + "/brightnessBands", "at most " + std::to_string(kMaxBrightnessBands) + " bands, got " +
+                                           std::to_string(t.brightnessBands.size()));
+    }
+    for (std::size_t i = 0; i < t.brightnessBands.size(); ++i) {
+        const BrightnessBand& b = t.brightnessBands[i];
+        const std::string bp = p + "/brightnessBands/band[" + std::to_string(i + 1) + "]";
+        k.range(b.brightness, 0.0, kInf, bp + "/brightness");
+        k.range(b.redGreen, 0.0, kInf, bp + "/redGreen");
+        k.range(b.redBlue, 0.0, kInf, bp + "/redBlue");
+        k.range(b.blueGreen, 0.0, kInf, bp + "/blueGreen");
+        for (std::size_t j = 0; j < i; ++j) {
+            const Range& o = t.brightnessBands[j].brightness;
+            if (o.min <= b.brightness.max && b.brightness.min <= o.max) {
+                k.fail(bp + "/brightness", "overlaps band[" + std::to_string(j + 1) + "] (" +
+                                               formatDouble(o.min) + ".." + formatDouble(o.max) + ")");
+            }
+        }
+    }
     // A hue range with min > max wraps through 0.
     k.range(t.hsv.hue, 0.0, 360.0, p + "/hsv/hue", /*ordered=*/false);
     k.range(t.hsv.saturation, 0.0, 1.0, p + "/hsv/saturation");

@@ -93,6 +93,18 @@ void writeTarget(Writer& w, const TargetType& t) {
     if (t.brightness) {
         w.range("brightness", *t.brightness);
     }
+    if (!t.brightnessBands.empty()) {
+        w.open("brightnessBands");
+        for (const BrightnessBand& b : t.brightnessBands) {
+            w.open("band");
+            w.range("brightness", b.brightness);
+            w.range("redGreen", b.redGreen);
+            w.range("redBlue", b.redBlue);
+            w.range("blueGreen", b.blueGreen);
+            w.close();
+        }
+        w.close();
+    }
     w.open("hsv");
     w.range("hue", t.hsv.hue);
     w.range("saturation", t.hsv.saturation);

@@ -106,12 +106,32 @@ TEST(ColorFilter, ZeroRedPassesOnlyWhenRatioMinimaAreZero) {
               (std::vector<int>{255, 0, 0, 0, 255}));
 }
 
-TEST(ColorFilter, InfiniteRatioFailsEvenAnUnboundedMax) {
-    // The largest max a configuration can hold (limits are finite, validateTargetType).
-    const std::vector<Bgr> px = {{100, 0, 100}, {0, 100, 100}, {100, 100, 100}};
-    const double inf = std::numeric_limits<double>::max();
-    const TargetType type = ratioType({0.0, inf}, {0.0, inf}, {0.0, inf});
-    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 3), 16, type)), (std::vector<int>{0, 0, 255}));
+// Clipped channels (issue: a red candy at (240, 0, 0) was found only at its
+// edges): x/0 is +infinity, passing every min and an open max (>= 65536) only;
+// 0/0 passes that ratio; black fails.
+TEST(ColorFilter, ClippedChannelsAreInfiniteOrUndecidedRatios) {
+    const std::vector<Bgr> px = {
+        {0, 0, 240},    // R/G = R/B = inf, B/G = 0/0
+        {0, 120, 240},  // R/G = 2, R/B = inf, B/G = 0
+        {120, 0, 240},  // R/G = inf, R/B = 2, B/G = inf
+        {0, 0, 0},      // black
+        {0, 0, 1},      // the darkest red: R/G = R/B = inf
+        {60, 60, 60},   // grey: every ratio 1
+    };
+    const TargetType open = ratioType({1.5, 1e9}, {1.5, 65536.0}, {0.0, 2.0});
+    const TargetType bounded = ratioType({1.5, 65535.0}, {1.5, 1e9}, {0.0, 2.0});
+    const std::vector<int> openExpected = {255, 255, 0, 0, 255, 0};  // B/G = inf fails its max of 2
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(px, 6), 8, open)), openExpected);
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 6), 16, open)), openExpected);
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 6, 257), 16, open)), openExpected);
+    // A bounded R/G max: every pixel with G = 0 fails; (0, 120, 240) has R/G = 2 and passes.
+    const std::vector<int> rgBounded = {0, 255, 0, 0, 0, 0};
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(px, 6), 8, bounded)), rgBounded);
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 6, 257), 16, bounded)), rgBounded);
+    // Even the largest max a configuration can hold is open.
+    const double most = std::numeric_limits<double>::max();
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint16_t>(px, 6), 16, ratioType({0, most}, {0, most}, {0, most}))),
+              (std::vector<int>{255, 255, 255, 0, 255, 255}));
 }
 
 // A limit that is a double next to a fraction: double(1/3) < 1/3 < next
@@ -427,4 +447,130 @@ TEST(ApplyMask, KeepsPixelsWhereTheMaskIsSet) {
 }
 
 }  // namespace
+
+// ---- brightness bands (thesis 3.3.2) ---------------------------------------------
+
+namespace {
+
+/// The filter's definition, pixel by pixel, in exact arithmetic: which band
+/// the brightness M = R+G+B falls in, then each ratio against its range with
+/// x/0 = +infinity (passes a min, and a max only when it is >= 65536) and 0/0
+/// passing; black fails.
+bool referencePasses(const TargetType& t, std::int64_t b, std::int64_t g, std::int64_t r) {
+    const std::int64_t m = b + g + r;
+    if (m == 0) return false;
+    if (t.brightness && !(t.brightness->min <= static_cast<double>(m) && static_cast<double>(m) <= t.brightness->max))
+        return false;
+    const Range* rg = &t.redGreen;
+    const Range* rb = &t.redBlue;
+    const Range* bg = &t.blueGreen;
+    for (const BrightnessBand& band : t.brightnessBands)
+        if (band.brightness.min <= static_cast<double>(m) && static_cast<double>(m) <= band.brightness.max) {
+            rg = &band.redGreen;
+            rb = &band.redBlue;
+            bg = &band.blueGreen;
+        }
+    const auto within = [](std::int64_t num, std::int64_t den, const Range& range) {
+        if (den == 0) return num == 0 || range.max >= 65536.0;
+        return exactCompare(num, den, range.min) >= 0 && exactCompare(num, den, range.max) <= 0;
+    };
+    return within(r, g, *rg) && within(r, b, *rb) && within(b, g, *bg);
+}
+
+TargetType bandedType() {
+    TargetType t = ratioType({1.2, 1.6}, {1.0, 3.0}, {0.2, 1.5});
+    // A dark band where the target's R/G sinks (the dark lab of 6.3), a
+    // middle one, and the type's own ranges above.
+    t.brightnessBands = {BrightnessBand{{0.0, 90.0}, {0.9, 1.25}, {0.5, 3.0}, {0.0, 2.0}},
+                         BrightnessBand{{90.5, 200.0}, {1.0, 1.4}, {0.8, 1e9}, {0.1, 1.8}}};
+    return t;
+}
+
+}  // namespace
+
+TEST(ColorFilter, BrightnessBandsAgreeWithTheDefinitionPixelByPixel8And16Bit) {
+    cv::RNG rng(11);
+    for (const int bits : {8, 16}) {
+        const int scale = bits == 8 ? 1 : 257;
+        TargetType t = bandedType();
+        for (BrightnessBand& b : t.brightnessBands) b.brightness = {b.brightness.min * scale, b.brightness.max * scale};
+        t.brightness = Range{3.0 * scale, 700.0 * scale};
+        cv::Mat image(64, 96, bits == 8 ? CV_8UC3 : CV_16UC3);
+        for (int y = 0; y < image.rows; ++y)
+            for (int x = 0; x < image.cols; ++x) {
+                // Dark and mid-range pixels around the limits, a few clipped to zero.
+                int v[3];
+                for (int& c : v) c = rng.uniform(0, 10) == 0 ? 0 : rng.uniform(1, 140);
+                if (bits == 8) image.at<cv::Vec3b>(y, x) = cv::Vec3b(v[0], v[1], v[2]);
+                else image.at<cv::Vec3w>(y, x) = cv::Vec3w(v[0] * scale + rng.uniform(0, 200), v[1] * scale,
+                                                           v[2] * scale);
+            }
+        const cv::Mat mask = filterOne(image, bits, t);
+        int passed = 0;
+        for (int y = 0; y < image.rows; ++y)
+            for (int x = 0; x < image.cols; ++x) {
+                std::int64_t b, g, r;
+                if (bits == 8) {
+                    const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+                    b = p[0], g = p[1], r = p[2];
+                } else {
+                    const cv::Vec3w p = image.at<cv::Vec3w>(y, x);
+                    b = p[0], g = p[1], r = p[2];
+                }
+                const bool expected = referencePasses(t, b, g, r);
+                passed += expected;
+                ASSERT_EQ(mask.at<std::uint8_t>(y, x), expected ? 255 : 0)
+                    << bits << "-bit pixel (" << b << ", " << g << ", " << r << ") at " << x << "," << y;
+            }
+        EXPECT_GT(passed, 100) << "the test needs pixels that pass";
+    }
+}
+
+// The separation bands exist for: a target whose R/G falls with brightness
+// against a background whose R/G does not. One range over both brightnesses
+// takes the background in; bands keep it out.
+TEST(ColorFilter, BandsSeparateWhatOneRangeCannot) {
+    std::vector<Bgr> px;
+    std::vector<int> isTarget;
+    for (int i = 0; i < 40; ++i) {
+        const int dim = 10 + i;  // dark: M 33..90
+        px.push_back({dim, dim, dim * 11 / 10 + 1});      // target, dark: R/G ~1.1
+        isTarget.push_back(255);
+        px.push_back({dim, dim, dim * 3 / 2});             // background, dark: R/G 1.5
+        isTarget.push_back(0);
+        const int lit = 80 + i;  // bright: M > 240
+        px.push_back({lit, lit, lit * 3 / 2});             // target, bright: R/G 1.5
+        isTarget.push_back(255);
+        px.push_back({lit, lit, lit * 11 / 10});           // background, bright: R/G ~1.1
+        isTarget.push_back(0);
+    }
+    const cv::Mat image = imageOf<std::uint8_t>(px, 4);
+    // One range covering the target at both brightnesses covers the background too.
+    const TargetType single = ratioType({1.05, 1.55}, {1.05, 1.55}, {0.9, 1.1});
+    const std::vector<int> one = maskValues(filterOne(image, 8, single));
+    int falsePositives = 0;
+    for (std::size_t i = 0; i < one.size(); ++i) falsePositives += one[i] == 255 && isTarget[i] == 0;
+    EXPECT_GT(falsePositives, 60);
+    TargetType banded = ratioType({1.4, 1.55}, {1.4, 1.55}, {0.9, 1.1});
+    banded.brightnessBands = {BrightnessBand{{0.0, 200.0}, {1.05, 1.25}, {1.05, 1.25}, {0.9, 1.1}}};
+    EXPECT_EQ(maskValues(filterOne(image, 8, banded)), isTarget);
+}
+
+TEST(ColorFilter, BandsAreValidated) {
+    TargetType t = bandedType();
+    t.brightnessBands[1].brightness = {80.0, 200.0};  // overlaps band 1
+    std::vector<cv::Mat> masks;
+    try {
+        colorFilterMasks(cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 1, 1)), 8, {t}, masks);
+        ADD_FAILURE() << "overlapping bands accepted";
+    } catch (const InvalidArgument& e) {
+        EXPECT_NE(std::string(e.what()).find("/brightnessBands/band[2]/brightness: overlaps band[1] (0..90)"),
+                  std::string::npos)
+            << e.what();
+    }
+    t = bandedType();
+    t.filter = ColorFilterMethod::Hsv;
+    EXPECT_THROW(colorFilterMasks(cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 1, 1)), 8, {t}, masks), InvalidArgument);
+}
+
 }  // namespace avatar

@@ -296,6 +296,14 @@ const std::vector<BadDocument> kBadDocuments = {
      "t.xml:54: /: malformed XML: cannot parse text (XML_ERROR_PARSING_TEXT)"},
     {"falloff coefficient zero", {{"<coefficient>1</coefficient><exponent>0.0008", "<coefficient>0</coefficient><exponent>0.0008"}},
      "t.xml:50: /avatar/lighting/pattern/blue/coefficient: must be > 0, got 0"},
+
+    // Brightness bands (thesis 3.3.2).
+    {"overlapping brightness bands", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><brightnessBands><band><brightness><min>0</min><max>90</max></brightness><redGreen><min>1</min><max>2</max></redGreen><redBlue><min>1</min><max>2</max></redBlue><blueGreen><min>0</min><max>1</max></blueGreen></band><band><brightness><min>80</min><max>200</max></brightness><redGreen><min>1</min><max>2</max></redGreen><redBlue><min>1</min><max>2</max></redBlue><blueGreen><min>0</min><max>1</max></blueGreen></band></brightnessBands>"}},
+     "t.xml:26: /avatar/targets/target[2]/brightnessBands/band[2]/brightness: overlaps band[1] (0..90)"},
+    {"brightness band without a ratio", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><brightnessBands><band><brightness><min>0</min><max>90</max></brightness></band></brightnessBands>"}},
+     "t.xml:26: /avatar/targets/target[2]/brightnessBands/band[1]: missing required element <redGreen>"},
+    {"brightness bands hold bands only", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><brightnessBands><range/></brightnessBands>"}},
+     "t.xml:26: /avatar/targets/target[2]/brightnessBands/range: unknown element <range>"},
 };
 
 class BadDocumentTest : public ::testing::TestWithParam<BadDocument> {};
@@ -409,6 +417,12 @@ const std::vector<BadConfig> kBadConfigs = {
      "<memory>:0: /avatar/targets/target[2]/blueGreen/max: must be a finite number, got inf"},
     {"negative brightness", [](AvatarConfig& c) { c.targets.targets[0].brightness = Range{-1, 5}; },
      "<memory>:0: /avatar/targets/target[1]/brightness/min: must be >= 0, got -1"},
+    {"brightness bands on an hsv filter",
+     [](AvatarConfig& c) { c.targets.targets[0].brightnessBands = {BrightnessBand{{0, 9}, {1, 2}, {1, 2}, {0, 1}}}; },
+     "<memory>:0: /avatar/targets/target[1]/brightnessBands: brightness bands need <filter> rgb_ratio"},
+    {"brightness band reversed",
+     [](AvatarConfig& c) { c.targets.targets[1].brightnessBands = {BrightnessBand{{0, 9}, {2, 1}, {1, 2}, {0, 1}}}; },
+     "<memory>:0: /avatar/targets/target[2]/brightnessBands/band[1]/redGreen: min 2 is above max 1"},
     {"hue above 360", [](AvatarConfig& c) { c.targets.targets[0].hsv.hue.max = 400; },
      "<memory>:0: /avatar/targets/target[1]/hsv/hue/max: must be between 0 and 360, got 400"},
     {"saturation reversed", [](AvatarConfig& c) { c.targets.targets[0].hsv.saturation = {0.9, 0.1}; },

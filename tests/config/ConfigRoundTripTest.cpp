@@ -165,6 +165,10 @@ std::vector<Mutation> mutations() {
     add("target[1].brightness.max", [](AvatarConfig& c) { c.targets.targets[0].brightness->max = 3; });
     add("target[1].brightness unset", [](AvatarConfig& c) { c.targets.targets[0].brightness.reset(); });
     add("target[2].brightness set", [](AvatarConfig& c) { c.targets.targets[1].brightness = Range{0, 1}; });
+    add("target[2].brightnessBands set", [](AvatarConfig& c) {
+        c.targets.targets[1].brightnessBands = {BrightnessBand{{0, 90.5}, {1.0 / 3.0, 2}, {0.5, 1e9}, {0, 0.25}},
+                                                BrightnessBand{{91, 300}, {1.25, 1.5}, {0.75, 2}, {0.125, 1}}};
+    });
     hsv("hue", &HsvRanges::hue);
     hsv("saturation", &HsvRanges::saturation);
     hsv("value", &HsvRanges::value);

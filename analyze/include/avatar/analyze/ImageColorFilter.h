@@ -21,12 +21,16 @@ namespace avatar {
 /// outside the image throws avatar::InvalidArgument).
 ///
 /// RGB-ratio filter: R/G, R/B and B/G each within [min, max], and R+G+B within
-/// the brightness range when one is set. Ratios are evaluated without division
-/// (min * G <= R <= max * G); a ratio whose numerator and denominator are both
-/// zero is undefined and fails, a zero denominator under a non-zero numerator
-/// is +infinity and fails every max (even an infinite one). So black pixels
-/// never pass, a pixel passes only if G > 0 and B > 0, and no NaN or division
-/// by zero can occur. The comparison is exact for the double limits: a pixel
+/// the brightness range when one is set. With brightness bands, a pixel whose
+/// M = R+G+B lies in a band is judged by that band's three ranges, any other by
+/// the type's own (thesis 3.3.2). Ratios are evaluated without division
+/// (min * G <= R <= max * G), so no NaN or division by zero can occur. Clipped
+/// channels (a saturated red at (240, 0, 0)): a zero denominator under a
+/// non-zero numerator is +infinity, which passes every min and passes a max only
+/// when the range is open, max >= 65536 (above every finite ratio of 8- or
+/// 16-bit samples; the default 1e9 is open); 0/0 (both channels zero) says
+/// nothing about that ratio and passes it, the other two deciding; a black
+/// pixel (0, 0, 0) fails every ratio filter. The comparison is exact for the double limits: a pixel
 /// passes if and only if its rational ratio lies in the closed interval of the
 /// limits' exact binary values (so a limit of 0.25 includes 1/4, while the
 /// double nearest 0.1 lies just above 1/10 and a min of 0.1 excludes R/G = 1/10).

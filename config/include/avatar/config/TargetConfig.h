@@ -3,6 +3,7 @@
 /// Colour filter, feature locator and search window of each target type
 /// (thesis 3.3, 4.2.4).
 
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
@@ -57,6 +58,25 @@ struct HsvRanges {
 ///   triangulated and the two views checked for consistency.
 enum class TargetShape { None, Sphere, Disc, Composite };
 
+/// RGB-ratio ranges for the pixels of one brightness band (thesis 3.3.2:
+/// "multiple ratio maximum/minimum values depending on the overall
+/// magnitude"): a pixel whose M = R+G+B lies in `brightness` is judged by
+/// these three ranges instead of the type's own, so clusters that part along
+/// a diagonal of ratio against M (the dark lab of 6.3) can be separated.
+struct BrightnessBand {
+    Range brightness;  ///< M, in the units of the image's samples
+    Range redGreen;
+    Range redBlue;
+    Range blueGreen;
+    bool operator==(const BrightnessBand& o) const {
+        return brightness == o.brightness && redGreen == o.redGreen && redBlue == o.redBlue &&
+               blueGreen == o.blueGreen;
+    }
+};
+
+/// The most brightness bands a target type may have.
+inline constexpr std::size_t kMaxBrightnessBands = 16;
+
 /// One kind of thing to find (e.g. "sample", "arm_marker").
 struct TargetType {
     std::string name;  ///< unique, [A-Za-z0-9_-]+
@@ -66,6 +86,9 @@ struct TargetType {
     Range blueGreen{0.0, 1e9};  ///< B/G
     /// R+G+B magnitude, in the units of the image's samples; unset: not checked.
     std::optional<Range> brightness;
+    /// Ratio ranges by brightness (rgb_ratio only; at most 16, not
+    /// overlapping). Pixels in no band use redGreen, redBlue, blueGreen.
+    std::vector<BrightnessBand> brightnessBands;
     HsvRanges hsv;              ///< used when filter == Hsv
     bool erodeRestore{false};   ///< erode, then feature-AND restore (thesis 3.3.2)
     int erodeKernelSize{3};     ///< odd, 1..31
@@ -78,6 +101,7 @@ struct TargetType {
     bool operator==(const TargetType& o) const {
         return name == o.name && filter == o.filter && redGreen == o.redGreen &&
                redBlue == o.redBlue && blueGreen == o.blueGreen && brightness == o.brightness &&
+               brightnessBands == o.brightnessBands &&
                hsv == o.hsv && erodeRestore == o.erodeRestore &&
                erodeKernelSize == o.erodeKernelSize && area == o.area &&
                aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window &&
