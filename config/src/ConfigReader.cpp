@@ -687,6 +687,28 @@ void checkRawText(const std::string& xml, const Reader& r) {
 
 }  // namespace
 
+TargetType parseTarget(const std::string& xml, const std::string& source, LineMap& lines) {
+    Reader r(source, lines);
+    checkRawText(xml, r);
+    XMLDocument doc;
+    if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS) {
+        r.fail(doc.ErrorLineNum(), "/", malformedMessage(doc));
+    }
+    const XMLElement* root = doc.RootElement();
+    if (root == nullptr) {
+        r.fail(0, "/", "malformed XML: the document has no element");
+    }
+    if (std::string_view(root->Name()) != "target") {
+        r.fail(root->GetLineNum(), std::string("/") + root->Name(),
+               "expected a <target> element, got " + element(root->Name()));
+    }
+    if (const XMLElement* second = root->NextSiblingElement()) {
+        r.fail(second->GetLineNum(), std::string("/") + second->Name(),
+               "unexpected second element " + element(second->Name()));
+    }
+    return readTarget(r, root, "/target");
+}
+
 ParsedDocument parseDocument(const std::string& xml, const std::string& source) {
     ParsedDocument parsed;
     Reader r(source, parsed.lines);

@@ -21,4 +21,7 @@ struct ParsedDocument {
 /// structural problem. The result is not yet value-validated.
 ParsedDocument parseDocument(const std::string& xml, const std::string& source);
 
+/// One <target> element on its own (path "/target"); structure only, like parseDocument().
+TargetType parseTarget(const std::string& xml, const std::string& source, LineMap& lines);
+
 }  // namespace avatar::config_internal

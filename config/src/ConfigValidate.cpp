@@ -518,6 +518,10 @@ void ErrorSite::fail(const std::string& path, const std::string& problem) const 
     throw ConfigError(source_, lineOf(path), path, problem);
 }
 
+void validateTargetAt(const TargetType& type, const ErrorSite& site, const std::string& path) {
+    validateTarget(Checker(site), type, path);
+}
+
 void validate(const AvatarConfig& config, const ErrorSite& site) {
     const Checker k(site);
     validateCamera(k, config.camera);

@@ -33,5 +33,7 @@ private:
 
 /// Checks every field of @p config; throws ConfigError naming the first bad one.
 void validate(const AvatarConfig& config, const ErrorSite& site);
+/// Checks one target type (not its window, which needs the image size) at @p path.
+void validateTargetAt(const TargetType& type, const ErrorSite& site, const std::string& path);
 
 }  // namespace avatar::config_internal

@@ -259,6 +259,12 @@ void writeServo(Writer& w, const ServoConfig& c) {
 
 }  // namespace
 
+std::string formatTarget(const TargetType& type) {
+    Writer w;
+    writeTarget(w, type);
+    return w.str() + "\n";
+}
+
 std::string formatDocument(const AvatarConfig& config) {
     Writer w;
     w.declaration();

@@ -49,6 +49,18 @@ void writeConfigFile(const AvatarConfig& config, const std::filesystem::path& pa
     fileutil::replaceFileAtomically(path, text, "config file");
 }
 
+std::string writeTargetString(const TargetType& type) {
+    validateTargetType(type);
+    return config_internal::formatTarget(type);
+}
+
+TargetType readTargetString(const std::string& xml, const std::string& sourceName) {
+    config_internal::LineMap lines;
+    TargetType type = config_internal::parseTarget(xml, sourceName, lines);
+    config_internal::validateTargetAt(type, config_internal::ErrorSite(sourceName, &lines), "/target");
+    return type;
+}
+
 ConfigError configErrorAt(const AvatarConfig& config, const std::string& elementPath, const std::string& problem) {
     const config_internal::ErrorSite site(config.origin.source, config.origin.lines.get());
     return ConfigError(config.origin.source, site.lineOf(elementPath), elementPath, problem);

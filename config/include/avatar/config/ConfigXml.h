@@ -43,6 +43,14 @@ std::string writeConfigString(const AvatarConfig& config);
 /// Writes atomically (temporary file then rename); throws avatar::IoError on failure.
 void writeConfigFile(const AvatarConfig& config, const std::filesystem::path& path);
 
+/// One <target> element, as a configuration holds it inside <targets>
+/// (docs/config.md), e.g. for a tool that proposes a target type. Validated
+/// first (validateTargetType()).
+std::string writeTargetString(const TargetType& type);
+/// Reads one <target> element on its own, as writeTargetString() writes it;
+/// ConfigError naming @p sourceName, the line and the element ("/target/...").
+TargetType readTargetString(const std::string& xml, const std::string& sourceName = "<string>");
+
 /// A ConfigError for a rule checked outside the validator, at @p elementPath
 /// of @p config: "<file>:<line>: <path>: <problem>" with the line of the
 /// element (or its nearest ancestor) when the configuration was read from a

@@ -1,0 +1,97 @@
+#pragma once
+/// @file FilterStats.h
+/// avatar-filterstats (docs/tools/avatar-filterstats.md; thesis 3.3.1-3.3.2,
+/// Figures 3-7 and 6-6 to 6-15): from labelled samples of a target and of its
+/// background in one image, the colour statistics of each and a proposed
+/// target type whose filter separates them, with the true- and false-positive
+/// rates the real colour filter (colorFilterMasks) gives on the samples.
+///
+/// Error policy: avatar::IoError / avatar::FormatError name the file at fault,
+/// avatar::InvalidArgument the sample or option (an empty mask, masks of
+/// another size than the image).
+
+#include <avatar/common/ImageFormat.h>
+#include <avatar/config/AvatarConfig.h>
+#include <avatar/config/TargetConfig.h>
+
+#include <opencv2/core/mat.hpp>
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace avatar::filterstats {
+
+/// The image the colour filter would see: 8- or 16-bit BGR.
+struct WorkingImage {
+    cv::Mat bgr;
+    int bitDepth{8};
+    std::string description;  ///< "raw 16-bit Bayer BG 1280x960", for the report
+};
+
+/// Reads @p path: a raw file named as docs/formats.md says (Bayer demosaiced),
+/// a lossless PNG/TIFF (8- or 16-bit; 3 channels, or 1 channel Bayer with
+/// @p bayer given), or any other 8-bit image file. @p bitDepth overrides the
+/// significant bits of 16-bit samples (default: the raw name's, else 16).
+WorkingImage loadImage(const std::filesystem::path& path, std::optional<BayerPattern> bayer = std::nullopt,
+                       std::optional<int> bitDepth = std::nullopt);
+/// One image of a recorded pair: the record of @p iteration (0: the first) in
+/// the session directory, @p side of it, demosaiced when Bayer.
+WorkingImage loadSessionImage(const std::filesystem::path& session, std::uint64_t iteration, Side side);
+
+/// What the colour filter sees is the image after the configuration's
+/// lighting correction (thesis 3.2): applies it in place when @p config asks
+/// for one (the "lighting" stage with a gain or pattern); @p configDir
+/// resolves its template image. Returns whether it did.
+bool correctLighting(WorkingImage& image, const AvatarConfig& config, const std::filesystem::path& configDir);
+
+/// A sample mask: an 8-bit image, non-zero = sample. Must have @p size.
+cv::Mat loadMask(const std::filesystem::path& path, cv::Size size);
+/// A polygon file (one "x y" vertex per line, '#' comments) filled into a mask of @p size.
+cv::Mat polygonMask(const std::filesystem::path& path, cv::Size size);
+
+struct Options {
+    std::string name{"target"};
+    /// A background false positive costs this many target true positives when
+    /// candidate filters are scored (score = TPR - weight * FPR).
+    double falsePositiveWeight{10.0};
+    /// Consider brightness bands when one range leaves more false positives than this.
+    double bandsAbove{0.002};
+    /// Samples used to choose (the rates reported use all of them).
+    std::size_t maxSamples{200000};
+    /// Called with (done, total) while candidates are evaluated.
+    std::function<void(int, int)> progress;
+};
+
+/// One candidate's rates on the samples, as the real filter gives them.
+struct Rates {
+    double truePositive{0};
+    double falsePositive{0};
+};
+
+struct Proposal {
+    TargetType type;     ///< the filter (ranges, bands), brightness range and minimum area
+    Rates rates;         ///< on every sample
+    Rates bestRatio;     ///< the best single-range RGB-ratio filter
+    Rates bestHsv;       ///< the best HSV filter
+    std::optional<Rates> bands;  ///< the best banded filter, when bands were tried
+    std::string why;     ///< why this method (and bands) were chosen
+    std::size_t targetSamples{0}, backgroundSamples{0};
+    std::vector<double> targetAreas;     ///< features of the proposed filter over the target samples
+    std::vector<double> lookAlikeAreas;  ///< features elsewhere in the image
+    std::string areaWhy;
+};
+
+/// The statistics and the proposal. Throws avatar::InvalidArgument when a
+/// mask is empty or the two overlap entirely.
+Proposal propose(const WorkingImage& image, const cv::Mat& targetMask, const cv::Mat& backgroundMask,
+                 const Options& options);
+
+/// The R/G, R/B, B/G and hue scatter plots against brightness M (target red,
+/// background blue, the proposed limits as lines): rg.png, rb.png, bg.png, hue.png.
+void writePlots(const std::filesystem::path& dir, const WorkingImage& image, const cv::Mat& targetMask,
+                const cv::Mat& backgroundMask, const Proposal& proposal);
+
+}  // namespace avatar::filterstats

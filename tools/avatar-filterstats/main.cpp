@@ -1,0 +1,202 @@
+// avatar-filterstats: colour statistics of labelled target and background
+// samples and a proposed target type whose filter separates them (replaces
+// the thesis's MATLAB filter tool, 3.3.1-3.3.2). User guide:
+// docs/tools/avatar-filterstats.md
+
+#include "FilterStats.h"
+
+#include <avatar/common/Error.h>
+#include <avatar/common/Logging.h>
+#include <avatar/config/ConfigXml.h>
+
+#include <boost/program_options.hpp>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include <unistd.h>
+
+namespace po = boost::program_options;
+using namespace avatar;
+using nlohmann::json;
+
+namespace {
+
+json rangeJson(const Range& r) { return json::array({r.min, r.max}); }
+
+json ratesJson(const filterstats::Rates& r) {
+    return {{"true_positive_rate", r.truePositive}, {"false_positive_rate", r.falsePositive}};
+}
+
+json reportOf(const filterstats::Proposal& p, const filterstats::WorkingImage& image) {
+    const TargetType& t = p.type;
+    json ranges = {{"rg", rangeJson(t.redGreen)}, {"rb", rangeJson(t.redBlue)}, {"bg", rangeJson(t.blueGreen)},
+                   {"brightness", t.brightness ? rangeJson(*t.brightness) : json::array({0.0, nullptr})}};
+    json report = {{"name", t.name},
+                   {"image", image.description},
+                   {"method", t.filter == ColorFilterMethod::Hsv ? "hsv" : "rgb_ratio"},
+                   {"why", p.why},
+                   {"ranges", ranges},
+                   {"true_positive_rate", p.rates.truePositive},
+                   {"false_positive_rate", p.rates.falsePositive},
+                   {"samples", {{"target", p.targetSamples}, {"background", p.backgroundSamples}}},
+                   {"candidates",
+                    {{"rgb_ratio", ratesJson(p.bestRatio)},
+                     {"hsv", ratesJson(p.bestHsv)},
+                     {"brightness_bands", p.bands ? ratesJson(*p.bands) : json(nullptr)}}},
+                   {"min_area", t.area.min},
+                   {"area_why", p.areaWhy},
+                   {"target_feature_areas", p.targetAreas},
+                   {"look_alike_areas", p.lookAlikeAreas}};
+    if (t.filter == ColorFilterMethod::Hsv)
+        report["hsv"] = {{"hue", rangeJson(t.hsv.hue)},
+                         {"saturation", rangeJson(t.hsv.saturation)},
+                         {"value", rangeJson(t.hsv.value)}};
+    json bands = json::array();
+    for (const BrightnessBand& b : t.brightnessBands)
+        bands.push_back({{"brightness", rangeJson(b.brightness)},
+                         {"rg", rangeJson(b.redGreen)},
+                         {"rb", rangeJson(b.redBlue)},
+                         {"bg", rangeJson(b.blueGreen)}});
+    report["brightness_bands"] = bands;
+    return report;
+}
+
+void writeText(const std::string& path, const std::string& text, const char* what) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw IoError(std::string("cannot write ") + what + " " + path);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    po::options_description options(
+        "avatar-filterstats: colour statistics of target and background samples, and a proposed filter\n"
+        "Usage: avatar-filterstats --image IMG --target-mask T.png --background-mask B.png --name NAME\n"
+        "                          --out TARGET.xml --report REPORT.json --plots DIR\n\nOptions");
+    // clang-format off
+    options.add_options()
+        ("help,h", "show this help")
+        ("image", po::value<std::string>(), "the image: raw (docs/formats.md), 8/16-bit PNG or TIFF, or any 8-bit image file")
+        ("session", po::value<std::string>(), "instead of --image: a recorded session directory")
+        ("iteration", po::value<std::uint64_t>()->default_value(0), "with --session: the record's iteration (0: the first)")
+        ("side", po::value<std::string>()->default_value("left"), "with --session: left or right")
+        ("bayer", po::value<std::string>(), "a 1-channel PNG/TIFF is a Bayer mosaic of this pattern (BG, GB, RG, GR)")
+        ("bit-depth", po::value<int>(), "significant bits of 16-bit samples (default: the raw name's, else 16)")
+        ("config", po::value<std::string>(), "measure after this configuration's lighting correction, as the colour filter sees the image")
+        ("target-mask", po::value<std::string>(), "8-bit image, non-zero = target sample")
+        ("background-mask", po::value<std::string>(), "8-bit image, non-zero = background sample")
+        ("target-polygon", po::value<std::string>(), "instead of --target-mask: 'x y' vertices, one per line")
+        ("background-polygon", po::value<std::string>(), "instead of --background-mask: 'x y' vertices")
+        ("name", po::value<std::string>(), "the target type's name")
+        ("out", po::value<std::string>(), "write the proposed <target> element here")
+        ("merge-into", po::value<std::string>(), "also put it into this configuration (replacing a type of the same name)")
+        ("report", po::value<std::string>(), "write the statistics and rates here (JSON)")
+        ("plots", po::value<std::string>(), "write the scatter plots into this directory (rg.png, rb.png, bg.png, hue.png)")
+        ("fp-weight", po::value<double>()->default_value(10.0), "a false positive costs this many true positives when choosing")
+        ("log", po::value<std::string>()->default_value("warn"), "log priority");
+    // clang-format on
+    po::variables_map vm;
+    try {
+        po::store(po::parse_command_line(argc, argv, options), vm);
+        po::notify(vm);
+    } catch (const po::error& e) {
+        std::cerr << "avatar-filterstats: " << e.what() << " (see --help)\n";
+        return 2;
+    }
+    if (vm.count("help")) {
+        std::cout << options << "\nExit status: 0 done, 1 an input cannot be used (the message names it), 2 usage.\n";
+        return 0;
+    }
+    const auto need = [&](const char* a, const char* b) { return vm.count(a) + vm.count(b) == 1; };
+    std::string usage;
+    if (!need("image", "session")) usage = "give exactly one of --image and --session";
+    else if (!need("target-mask", "target-polygon")) usage = "give exactly one of --target-mask and --target-polygon";
+    else if (!need("background-mask", "background-polygon"))
+        usage = "give exactly one of --background-mask and --background-polygon";
+    else if (!vm.count("name")) usage = "--name is required";
+    else if (!vm.count("out") && !vm.count("report") && !vm.count("merge-into"))
+        usage = "nothing to write: give --out, --report or --merge-into";
+    if (!usage.empty()) {
+        std::cerr << "avatar-filterstats: " << usage << " (see --help)\n";
+        return 2;
+    }
+    try {
+        logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
+        filterstats::WorkingImage image;
+        if (vm.count("session")) {
+            const std::string side = vm["side"].as<std::string>();
+            if (side != "left" && side != "right") throw InvalidArgument("--side must be left or right, got '" + side + "'");
+            image = filterstats::loadSessionImage(vm["session"].as<std::string>(), vm["iteration"].as<std::uint64_t>(),
+                                                  side == "left" ? Side::Left : Side::Right);
+        } else {
+            std::optional<BayerPattern> bayer;
+            if (vm.count("bayer")) bayer = parseBayerPattern(vm["bayer"].as<std::string>());
+            std::optional<int> bits;
+            if (vm.count("bit-depth")) bits = vm["bit-depth"].as<int>();
+            image = filterstats::loadImage(vm["image"].as<std::string>(), bayer, bits);
+        }
+        if (vm.count("config")) {
+            const std::filesystem::path file = vm["config"].as<std::string>();
+            filterstats::correctLighting(image, readConfigFile(file), file.parent_path());
+        }
+        const cv::Size size = image.bgr.size();
+        const cv::Mat target = vm.count("target-mask")
+                                   ? filterstats::loadMask(vm["target-mask"].as<std::string>(), size)
+                                   : filterstats::polygonMask(vm["target-polygon"].as<std::string>(), size);
+        const cv::Mat background = vm.count("background-mask")
+                                       ? filterstats::loadMask(vm["background-mask"].as<std::string>(), size)
+                                       : filterstats::polygonMask(vm["background-polygon"].as<std::string>(), size);
+        filterstats::Options o;
+        o.name = vm["name"].as<std::string>();
+        o.falsePositiveWeight = vm["fp-weight"].as<double>();
+        if (!(o.falsePositiveWeight >= 0.0)) throw InvalidArgument("--fp-weight must be >= 0");
+        const bool tty = ::isatty(STDERR_FILENO) != 0;
+        if (tty)
+            o.progress = [](int done, int total) {
+                const int width = 30, filled = width * done / std::max(total, 1);
+                std::cerr << "\r[" << std::string(static_cast<std::size_t>(filled), '#')
+                          << std::string(static_cast<std::size_t>(width - filled), ' ') << "] " << done << "/" << total
+                          << " candidate filters" << std::flush;
+            };
+        const filterstats::Proposal p = filterstats::propose(image, target, background, o);
+        if (tty) std::cerr << "\n";
+        const std::string xml = writeTargetString(p.type);  // validates the proposal
+        if (vm.count("out")) writeText(vm["out"].as<std::string>(), xml, "target element");
+        if (vm.count("merge-into")) {
+            const std::string path = vm["merge-into"].as<std::string>();
+            AvatarConfig config = readConfigFile(path);
+            bool replaced = false;
+            for (TargetType& t : config.targets.targets)
+                if (t.name == p.type.name) {
+                    TargetType merged = p.type;
+                    merged.window = t.window;  // where to look stays the site's choice
+                    merged.shape = t.shape;
+                    merged.erodeRestore = t.erodeRestore;
+                    merged.erodeKernelSize = t.erodeKernelSize;
+                    t = merged;
+                    replaced = true;
+                }
+            if (!replaced) config.targets.targets.push_back(p.type);
+            writeConfigFile(config, path);
+            std::cout << (replaced ? "replaced" : "added") << " target type '" << p.type.name << "' in " << path << "\n";
+        }
+        if (vm.count("report")) writeText(vm["report"].as<std::string>(), reportOf(p, image).dump(2) + "\n", "report");
+        if (vm.count("plots")) filterstats::writePlots(vm["plots"].as<std::string>(), image, target, background, p);
+        std::cout << p.type.name << ": " << p.why << "\n"
+                  << "on the samples: true positives " << p.rates.truePositive * 100 << " % of "
+                  << p.targetSamples << ", false positives " << p.rates.falsePositive * 100 << " % of "
+                  << p.backgroundSamples << "\nminimum area " << p.type.area.min << " px: " << p.areaWhy << "\n";
+        return 0;
+    } catch (const Error& e) {
+        std::cerr << "avatar-filterstats: " << e.what() << "\n";
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "avatar-filterstats: unexpected error: " << e.what() << "\n";
+        return 1;
+    }
+}
