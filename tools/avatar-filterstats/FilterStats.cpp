@@ -178,6 +178,54 @@ HsvRanges hsvRanges(const std::vector<Px>& target, double fullScale, double q) {
     return r;
 }
 
+/// Whether @p p passes every limit of a single-range ratio filter but @p skip
+/// (0..5: rg min/max, rb min/max, bg min/max); the filter's own rules for x/0
+/// and 0/0 (ImageColorFilter.h), the brightness range included.
+bool passesOthers(const Px& p, const TargetType& t, int skip) {
+    if (t.brightness && (p.m() < t.brightness->min || p.m() > t.brightness->max)) return false;
+    if (p.m() == 0) return false;
+    const double v[3] = {rg(p), rb(p), bg(p)};
+    const Range* r[3] = {&t.redGreen, &t.redBlue, &t.blueGreen};
+    for (int k = 0; k < 3; ++k) {
+        if (std::isnan(v[k])) continue;
+        const bool openMax = r[k]->max >= 65536.0;
+        if (skip != 2 * k && v[k] < r[k]->min) return false;
+        if (skip != 2 * k + 1 && v[k] > r[k]->max && !(std::isinf(v[k]) && openMax)) return false;
+    }
+    return true;
+}
+
+/// Widens each ratio limit of @p t half-way (in log ratio, at most a factor
+/// of 2) towards the nearest background sample that would pass if the limit
+/// were not there: the background samples passed stay exactly those passed
+/// before, and the target's range gains a margin for the lighting and noise of
+/// other images (a limit at the outermost target sample fits one image only).
+void widenToMargins(TargetType& t, const std::vector<Px>& background) {
+    Range* r[3] = {&t.redGreen, &t.redBlue, &t.blueGreen};
+    for (int limit = 0; limit < 6; ++limit) {
+        Range& range = *r[limit / 2];
+        const bool isMax = limit % 2 == 1;
+        if (isMax && range.max >= 65536.0) continue;  // open already
+        double nearest = isMax ? kInf : 0.0;
+        for (const Px& p : background) {
+            if (!passesOthers(p, t, limit)) continue;
+            const double v = limit / 2 == 0 ? rg(p) : limit / 2 == 1 ? rb(p) : bg(p);
+            if (std::isnan(v)) continue;
+            if (isMax && v > range.max) nearest = std::min(nearest, v);
+            if (!isMax && v < range.min) nearest = std::max(nearest, v);
+        }
+        if (isMax) {
+            const double wider = std::isinf(nearest) ? 2.0 * range.max : std::sqrt(range.max * nearest);
+            const double rounded = roundOut(std::min(wider, 2.0 * range.max), true);
+            if (rounded > range.max && rounded < nearest) range.max = rounded;
+        } else if (range.min > 0.0) {
+            const double wider = nearest > 0.0 ? std::sqrt(range.min * nearest) : 0.5 * range.min;
+            const double rounded = roundOut(std::max(wider, 0.5 * range.min), false);
+            if (rounded < range.min && rounded > nearest) range.min = rounded;
+        }
+    }
+}
+
 std::string fmt(double v, int precision = 4) {
     std::ostringstream s;
     s.precision(precision);
@@ -460,11 +508,16 @@ Proposal propose(const WorkingImage& image, const cv::Mat& targetMask, const cv:
             << ratesText(p.bestRatio) << ")";
     } else {
         p.type = bestRatio;
-        p.rates = p.bestRatio;
-        why << "rgb_ratio: " << ratesText(p.bestRatio) << " (hsv: " << ratesText(p.bestHsv) << ")";
+        widenToMargins(p.type, background);
+        p.rates = rates(p.type, allTarget, allBackground);
+        why << "rgb_ratio: " << ratesText(p.rates) << " (hsv: " << ratesText(p.bestHsv) << ")";
         if (p.bands) why << "; brightness bands gain too little (" << ratesText(*p.bands) << ")";
     }
-    why << "; trimmed " << fmt(bestRatioTrim * 100) << " % of the target's ratio extremes, score TPR - "
+    why << "; trimmed " << fmt(bestRatioTrim * 100) << " % of the target's ratio extremes"
+        << (p.type.filter == ColorFilterMethod::RgbRatio && p.type.brightnessBands.empty()
+                ? ", each limit widened half-way to the nearest background sample (at most 2x)"
+                : "")
+        << ", score TPR - "
         << fmt(options.falsePositiveWeight) << " x FPR";
     p.why = why.str();
 
@@ -536,13 +589,17 @@ void drawFrame(cv::Mat& img, const Axes& a, const std::string& xLabel, const std
         const double x = a.xMax * i / 4, y = a.yMax * i / 4;
         const cv::Point px = a.at(x, 0), py = a.at(0, y);
         cv::line(img, px, px + cv::Point(0, 5), cv::Scalar(0, 0, 0));
-        cv::putText(img, fmt(x, 3), px + cv::Point(-15, 20), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
+        const std::string xText = fmt(x, 3);
+        const int xWidth = cv::getTextSize(xText, cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, nullptr).width;
+        const int xAt = std::min(px.x - xWidth / 2, img.cols - xWidth - 2);  // the last one stays inside
+        cv::putText(img, xText, cv::Point(xAt, px.y + 20), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
         cv::line(img, py, py - cv::Point(5, 0), cv::Scalar(0, 0, 0));
         cv::putText(img, fmt(y, 3), py + cv::Point(-62, 4), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
     }
     cv::putText(img, xLabel, cv::Point(a.box.x + a.box.width / 2 - 60, a.box.y + a.box.height + 38),
                 cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0));
-    cv::putText(img, yLabel, cv::Point(4, a.box.y + 12), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0));
+    cv::putText(img, yLabel, cv::Point(4, a.box.y + a.box.height * 3 / 8), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(0, 0, 0));
     cv::putText(img, title, cv::Point(a.box.x + 8, a.box.y + 16), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(0, 0, 0));
 }
@@ -583,6 +640,9 @@ void writePlots(const std::filesystem::path& dir, const WorkingImage& image, con
         Axes a;
         a.xMax = mMax;
         a.yMax = std::max(1e-3, 1.3 * quantile(all, 0.99));
+        // The proposed limits in view too, unless one is far beyond the data.
+        for (const double limit : {plot.range->min, plot.range->max})
+            if (std::isfinite(limit) && limit > a.yMax && limit < 4.0 * a.yMax) a.yMax = 1.1 * limit;
         cv::Mat img(600, 820, CV_8UC3, cv::Scalar(255, 255, 255));
         for (const auto& [set, colour] : {std::pair{&background, blue}, std::pair{&target, red}})
             for (const Px& p : *set) {
