@@ -1,7 +1,11 @@
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
+
+#include "FrontEnd.h"
+
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
 #include <avatar/common/Logging.h>
+#include <avatar/common/internal/WorkerThread.h>
 #include <avatar/config/ConfigXml.h>
 
 #include <log4cpp/Category.hh>
@@ -10,61 +14,12 @@
 
 #include <algorithm>
 #include <chrono>
-#include <condition_variable>
-#include <functional>
-#include <future>
-#include <mutex>
 #include <set>
-#include <thread>
 
 namespace avatar {
 
-/// One long-lived thread that runs the right image's share of each stage, so
-/// no thread is created per frame.
-class AnalyzeStereoImagePair::Worker {
-public:
-    Worker() : thread_([this] { loop(); }) {}
-    ~Worker() {
-        {
-            std::lock_guard<std::mutex> lock(mutex_);
-            stop_ = true;
-        }
-        wake_.notify_one();
-        thread_.join();
-    }
-    std::future<void> submit(std::function<void()> work) {
-        std::packaged_task<void()> task(std::move(work));
-        auto done = task.get_future();
-        {
-            std::lock_guard<std::mutex> lock(mutex_);
-            task_ = std::move(task);
-            pending_ = true;
-        }
-        wake_.notify_one();
-        return done;
-    }
-
-private:
-    void loop() {
-        for (;;) {
-            std::packaged_task<void()> task;
-            {
-                std::unique_lock<std::mutex> lock(mutex_);
-                wake_.wait(lock, [this] { return stop_ || pending_; });
-                if (!pending_) return;
-                task = std::move(task_);
-                pending_ = false;
-            }
-            task();  // exceptions land in the future
-        }
-    }
-    std::mutex mutex_;
-    std::condition_variable wake_;
-    std::packaged_task<void()> task_;
-    bool pending_{false};
-    bool stop_{false};
-    std::thread thread_;
-};
+/// The right image's share of each stage runs on one long-lived thread.
+class AnalyzeStereoImagePair::Worker : public detail::WorkerThread {};
 
 AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
                                                const std::filesystem::path& configDir,
@@ -93,6 +48,7 @@ AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
         stages_.push_back(std::move(stage));
         names_.push_back(name);
     }
+    detail::fuseFrontEnd(stages_);
     worker_ = std::make_unique<Worker>();
     logging::category("analyze").info("pipeline: %zu stages, %zu target types", stages_.size(),
                                       config_.targets.targets.size());

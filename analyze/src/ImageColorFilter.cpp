@@ -1,5 +1,8 @@
 #include <avatar/analyze/ImageColorFilter.h>
 
+#include "ColorFilterKernel.h"
+#include "KernelClones.h"
+
 #include <avatar/analyze/ImageFeatureLocator.h>
 #include <avatar/common/Error.h>
 #include <avatar/config/ConfigXml.h>
@@ -11,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -150,20 +154,9 @@ T exactLimit(double x, Bound bound, std::uint32_t n) {
 }
 
 // ---------------------------------------------------------------------------
-// Per-type plans and row kernels.
-//
-// The kernels are plain loops over interleaved BGR samples. GCC vectorises
-// the stride-3 loads with their widening to int only from SSE4.1 on, so each
-// kernel is also compiled for AVX2, AVX and SSE4.1 and the best clone for the
-// CPU is picked when the program loads (target_clones, an ifunc); the default
-// clone is the scalar, branch-free loop for any x86-64.
+// Per-type plans and row kernels (KernelClones.h: each is also compiled for
+// AVX2, AVX and SSE4.1, the best picked when the program loads).
 // ---------------------------------------------------------------------------
-
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-#define AVATAR_KERNEL_CLONES __attribute__((target_clones("avx2", "avx", "sse4.1", "default")))
-#else
-#define AVATAR_KERNEL_CLONES
-#endif
 
 template <typename T>
 struct RatioLimits {
@@ -185,21 +178,22 @@ struct HsvLimits {
     T valLo, valHi;        // integer limits on max(R, G, B)
 };
 
-/// RGB-ratio test (thesis Figure 3-8) on one row span. Branch-free so that
-/// GCC vectorises it at -O3: the three samples are widened to T, each of the
-/// six ratio limits costs one multiply and one compare, and the verdict is a
-/// 0/255 byte.
-template <typename S, typename T>
-AVATAR_KERNEL_CLONES void ratioRow(const S* __restrict px, std::uint8_t* __restrict out, int n, const RatioLimits<T>& lim) {
+/// RGB-ratio test (thesis Figure 3-8) on one row span of planar samples (the
+/// integer sample values held in floats, exact up to 2^24). Branch-free so
+/// that GCC vectorises it at -O3: each of the six ratio limits costs one
+/// multiply and one compare in T, and the verdict is a 0/255 byte. The planes
+/// are contiguous, so no de-interleaving is needed per type.
+template <typename T>
+AVATAR_KERNEL_CLONES void ratioRow(const float* __restrict pb, const float* __restrict pg, const float* __restrict pr,
+                                   std::uint8_t* __restrict out, int n, const RatioLimits<T>& lim) {
     const T rgLo = lim.rgLo, rgHi = lim.rgHi, rbLo = lim.rbLo, rbHi = lim.rbHi;
     const T bgLo = lim.bgLo, bgHi = lim.bgHi, sumLo = lim.sumLo, sumHi = lim.sumHi;
     const bool rgOpen = lim.rgOpen, rbOpen = lim.rbOpen, bgOpen = lim.bgOpen;
     for (int i = 0; i < n; ++i) {
-        // Widening through int32: GCC vectorises int -> float/double, not u16 -> float.
-        const T b = static_cast<T>(static_cast<std::int32_t>(px[3 * i]));
-        const T g = static_cast<T>(static_cast<std::int32_t>(px[3 * i + 1]));
-        const T r = static_cast<T>(static_cast<std::int32_t>(px[3 * i + 2]));
-        const T sum = b + g + r;
+        const T b = static_cast<T>(pb[i]);
+        const T g = static_cast<T>(pg[i]);
+        const T r = static_cast<T>(pr[i]);
+        const T sum = b + g + r;  // exact: at most 3 * 65535 < 2^24
         // With a zero denominator both products are 0: lo * 0 <= num always
         // holds (+infinity and 0/0 pass every min), num <= hi * 0 only for 0/0,
         // and +infinity passes the max only when it is open (see the header).
@@ -211,22 +205,23 @@ AVATAR_KERNEL_CLONES void ratioRow(const S* __restrict px, std::uint8_t* __restr
     }
 }
 
-/// HSV test on one row span. Hue is computed in float with one division
-/// (correctly rounded, so it depends only on the ratio of the samples);
-/// saturation and value use exact limits like the ratio test. Written with
-/// integer 0/1 flags and selects between constants only: GCC does not
-/// if-convert a select whose arm is a floating-point operation (it might
+/// HSV test on one row span of planar samples. Hue is computed in float with
+/// one division (correctly rounded, so it depends only on the ratio of the
+/// samples); saturation and value use exact limits like the ratio test.
+/// Written with integer 0/1 flags and selects between constants only: GCC does
+/// not if-convert a select whose arm is a floating-point operation (it might
 /// trap), and a loop with control flow is not vectorised.
-template <typename S, typename T>
-AVATAR_KERNEL_CLONES void hsvRow(const S* __restrict px, std::uint8_t* __restrict out, int n, const HsvLimits<T>& lim) {
+template <typename T>
+AVATAR_KERNEL_CLONES void hsvRow(const float* __restrict pb, const float* __restrict pg, const float* __restrict pr,
+                                 std::uint8_t* __restrict out, int n, const HsvLimits<T>& lim) {
     const float hueLo = lim.hueLo, hueHi = lim.hueHi;
     const bool wraps = lim.hueWraps, blackOk = lim.blackSatPasses;
     const T satLo = lim.satLo, satHi = lim.satHi, valLo = lim.valLo, valHi = lim.valHi;
     const std::int32_t wrapsI = wraps, blackI = blackOk;
     for (int i = 0; i < n; ++i) {
-        const std::int32_t b = px[3 * i];
-        const std::int32_t g = px[3 * i + 1];
-        const std::int32_t r = px[3 * i + 2];
+        const auto b = static_cast<std::int32_t>(pb[i]);
+        const auto g = static_cast<std::int32_t>(pg[i]);
+        const auto r = static_cast<std::int32_t>(pr[i]);
         const std::int32_t mx = std::max(std::max(b, g), r);
         const std::int32_t mn = std::min(std::min(b, g), r);
         const std::int32_t c = mx - mn;
@@ -255,23 +250,44 @@ AVATAR_KERNEL_CLONES void hsvRow(const S* __restrict px, std::uint8_t* __restric
     }
 }
 
-/// Everything one type needs for one image: its clipped window and its row
-/// kernel with its limits.
-/// An RGB-ratio type is one or more segments: the limits for one interval of
-/// R+G+B (a brightness band, or what lies between bands); a pixel passes when
-/// it passes the segment of its brightness. Without bands, one segment.
-struct Plan {
+/// Interleaved BGR samples to three float planes (exact), once per row for
+/// every type. GCC vectorises the stride-3 loads with their widening from
+/// SSE4.1 on, hence the clones.
+template <typename S>
+AVATAR_KERNEL_CLONES void splitRowKernel(const S* __restrict px, float* __restrict b, float* __restrict g,
+                                         float* __restrict r, int n) {
+    for (int i = 0; i < n; ++i) {
+        b[i] = static_cast<float>(static_cast<std::int32_t>(px[3 * i]));
+        g[i] = static_cast<float>(static_cast<std::int32_t>(px[3 * i + 1]));
+        r[i] = static_cast<float>(static_cast<std::int32_t>(px[3 * i + 2]));
+    }
+}
+
+}  // namespace
+
+/// Everything one type needs for one image size and depth: its clipped window
+/// and its row kernel with its limits. An RGB-ratio type is one or more
+/// segments: the limits for one interval of R+G+B (a brightness band, or what
+/// lies between bands); a pixel passes when it passes the segment of its
+/// brightness. Without bands, one segment.
+struct detail::ColorTest::Plan {
+    using Row = void (*)(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
+                         std::uint8_t* scratch);
     cv::Rect window;
-    void (*row)(const void* px, std::uint8_t* out, int n, const Plan& plan){nullptr};
+    Row row{nullptr};
     std::vector<RatioLimits<float>> ratioF;
     std::vector<RatioLimits<double>> ratioD;
     HsvLimits<float> hsvF{};
     HsvLimits<double> hsvD{};
-    mutable std::vector<std::uint8_t> scratch;  ///< one row of a further segment's verdicts
 };
 
-template <typename S, typename T>
-void ratioRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) {
+namespace {
+
+using Plan = detail::ColorTest::Plan;
+
+template <typename T>
+void ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
+                    std::uint8_t* scratch) {
     const auto& segments = [&]() -> const std::vector<RatioLimits<T>>& {
         if constexpr (std::is_same_v<T, float>) return plan.ratioF;
         else return plan.ratioD;
@@ -280,24 +296,21 @@ void ratioRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) 
         std::memset(out, 0, static_cast<std::size_t>(n));
         return;
     }
-    const S* p = static_cast<const S*>(px);
-    ratioRow<S, T>(p, out, n, segments[0]);
-    if (segments.size() == 1) return;
-    plan.scratch.resize(static_cast<std::size_t>(n));
-    std::uint8_t* more = plan.scratch.data();
+    ratioRow<T>(b, g, r, out, n, segments[0]);
     // Segments hold disjoint brightness intervals: at most one passes a pixel.
     for (std::size_t k = 1; k < segments.size(); ++k) {
-        ratioRow<S, T>(p, more, n, segments[k]);
-        for (int i = 0; i < n; ++i) out[i] |= more[i];
+        ratioRow<T>(b, g, r, scratch, n, segments[k]);
+        for (int i = 0; i < n; ++i) out[i] |= scratch[i];
     }
 }
 
-template <typename S, typename T>
-void hsvRowErased(const void* px, std::uint8_t* out, int n, const Plan& plan) {
+template <typename T>
+void hsvRowErased(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
+                  std::uint8_t* /*scratch*/) {
     if constexpr (std::is_same_v<T, float>)
-        hsvRow<S, T>(static_cast<const S*>(px), out, n, plan.hsvF);
+        hsvRow<T>(b, g, r, out, n, plan.hsvF);
     else
-        hsvRow<S, T>(static_cast<const S*>(px), out, n, plan.hsvD);
+        hsvRow<T>(b, g, r, out, n, plan.hsvD);
 }
 
 /// Integer limits [lo, hi] on an integer quantity v equivalent to r.min <= v <= r.max.
@@ -404,9 +417,7 @@ bool floatIsExact(const TargetType& type, std::uint32_t n) {
     return ok(type.redGreen) && ok(type.redBlue) && ok(type.blueGreen);
 }
 
-template <typename S>
-Plan makePlan(const TargetType& type, cv::Size size, int bitDepth) {
-    constexpr std::uint32_t n = std::numeric_limits<S>::max();
+Plan makePlan(const TargetType& type, cv::Size size, std::uint32_t n, int bitDepth) {
     validateTargetType(type);  // the configuration's rules: ranges ordered, limits not NaN
     Plan plan;
     plan.window = searchWindow(type, size);
@@ -418,51 +429,83 @@ Plan makePlan(const TargetType& type, cv::Size size, int bitDepth) {
         const double fullScale = std::ldexp(1.0, bitDepth) - 1.0;
         if (useFloat) {
             plan.hsvF = hsvLimits<float>(type, n, fullScale);
-            plan.row = &hsvRowErased<S, float>;
+            plan.row = &hsvRowErased<float>;
         } else {
             plan.hsvD = hsvLimits<double>(type, n, fullScale);
-            plan.row = &hsvRowErased<S, double>;
+            plan.row = &hsvRowErased<double>;
         }
     } else if (useFloat) {
         plan.ratioF = ratioSegments<float>(type, n);
-        plan.row = &ratioRowErased<S, float>;
+        plan.row = &ratioRowErased<float>;
     } else {
         plan.ratioD = ratioSegments<double>(type, n);
-        plan.row = &ratioRowErased<S, double>;
+        plan.row = &ratioRowErased<double>;
     }
     return plan;
 }
 
-/// A mask buffer of the image's size that can be written in place: reused
-/// when it is the caller's own continuous CV_8UC1 of that size, new otherwise
-/// (so a mask still referenced elsewhere, e.g. by a display, is never overwritten).
-void prepareMask(cv::Mat& mask, cv::Size size) {
+}  // namespace
+
+void detail::prepareMask(cv::Mat& mask, cv::Size size) {
     const bool reusable = mask.type() == CV_8UC1 && mask.size() == size && !mask.isSubmatrix() &&
                           mask.u != nullptr && mask.u->refcount == 1;
     if (!reusable) mask = cv::Mat(size, CV_8UC1);
 }
 
+namespace {
+
 template <typename S>
-void filterImage(const cv::Mat& bgr, const std::vector<Plan>& plans, std::vector<cv::Mat>& masks) {
+void filterImage(const cv::Mat& bgr, const std::vector<detail::ColorTest>& tests, std::vector<cv::Mat>& masks) {
     const int cols = bgr.cols;
+    std::vector<float> planes(3 * static_cast<std::size_t>(cols));
+    std::vector<std::uint8_t> scratch(static_cast<std::size_t>(cols));
+    float* b = planes.data();
+    float* g = b + cols;
+    float* r = g + cols;
     for (int y = 0; y < bgr.rows; ++y) {
-        const S* row = bgr.ptr<S>(y);
-        for (std::size_t t = 0; t < plans.size(); ++t) {
-            const Plan& plan = plans[t];
+        // The columns some type looks at in this row, split once for all types.
+        int from = cols, to = 0;
+        for (const detail::ColorTest& t : tests) {
+            const cv::Rect& w = t.window();
+            if (y >= w.y && y < w.y + w.height) {
+                from = std::min(from, w.x);
+                to = std::max(to, w.x + w.width);
+            }
+        }
+        if (from < to) detail::splitRow(bgr.ptr<S>(y) + 3 * from, b + from, g + from, r + from, to - from);
+        for (std::size_t t = 0; t < tests.size(); ++t) {
             std::uint8_t* out = masks[t].ptr<std::uint8_t>(y);
-            const cv::Rect& w = plan.window;
+            const cv::Rect& w = tests[t].window();
             if (y < w.y || y >= w.y + w.height) {
                 std::memset(out, 0, static_cast<std::size_t>(cols));
                 continue;
             }
             std::memset(out, 0, static_cast<std::size_t>(w.x));
-            plan.row(row + 3 * w.x, out + w.x, w.width, plan);
+            tests[t].row(b + w.x, g + w.x, r + w.x, out + w.x, w.width, scratch.data());
             std::memset(out + w.x + w.width, 0, static_cast<std::size_t>(cols - w.x - w.width));
         }
     }
 }
 
 }  // namespace
+
+namespace detail {
+
+ColorTest::ColorTest(const TargetType& type, cv::Size size, int depth, int bitDepth)
+    : plan_(std::make_shared<const Plan>(
+          makePlan(type, size, depth == CV_8U ? 255u : 65535u, bitDepth))) {}
+
+const cv::Rect& ColorTest::window() const { return plan_->window; }
+
+void ColorTest::row(const float* b, const float* g, const float* r, std::uint8_t* out, int n,
+                    std::uint8_t* scratch) const {
+    plan_->row(b, g, r, out, n, *plan_, scratch);
+}
+
+void splitRow(const std::uint8_t* bgr, float* b, float* g, float* r, int n) { splitRowKernel(bgr, b, g, r, n); }
+void splitRow(const std::uint16_t* bgr, float* b, float* g, float* r, int n) { splitRowKernel(bgr, b, g, r, n); }
+
+}  // namespace detail
 
 void colorFilterMasks(const cv::Mat& bgr, int bitDepth, const std::vector<TargetType>& types,
                       std::vector<cv::Mat>& masks) {
@@ -476,18 +519,16 @@ void colorFilterMasks(const cv::Mat& bgr, int bitDepth, const std::vector<Target
         throw InvalidArgument("colorFilterMasks: bit depth " + std::to_string(bitDepth) + " is not in 1.." +
                               std::to_string(maxBits) + " for a " + cv::typeToString(bgr.type()) + " image");
 
-    std::vector<Plan> plans;
-    plans.reserve(types.size());
-    for (const TargetType& type : types)
-        plans.push_back(depth == CV_8U ? makePlan<std::uint8_t>(type, bgr.size(), bitDepth)
-                                       : makePlan<std::uint16_t>(type, bgr.size(), bitDepth));
+    std::vector<detail::ColorTest> tests;
+    tests.reserve(types.size());
+    for (const TargetType& type : types) tests.emplace_back(type, bgr.size(), depth, bitDepth);
     masks.resize(types.size());
-    for (cv::Mat& mask : masks) prepareMask(mask, bgr.size());
+    for (cv::Mat& mask : masks) detail::prepareMask(mask, bgr.size());
 
     if (depth == CV_8U)
-        filterImage<std::uint8_t>(bgr, plans, masks);
+        filterImage<std::uint8_t>(bgr, tests, masks);
     else
-        filterImage<std::uint16_t>(bgr, plans, masks);
+        filterImage<std::uint16_t>(bgr, tests, masks);
 }
 
 cv::Mat applyMask(const cv::Mat& bgr, const cv::Mat& mask) {

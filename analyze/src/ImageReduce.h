@@ -4,8 +4,11 @@
 /// visibility stage, written to give exactly what the OpenCV calls they
 /// replace give, at a fraction of the cost (docs/benchmarks.md).
 
+#include <avatar/analyze/Visibility.h>
+
 #include <opencv2/core/mat.hpp>
 
+#include <cstddef>
 #include <cstdint>
 
 namespace avatar::detail {
@@ -21,5 +24,11 @@ void downsampleArea4(const cv::Mat& image, cv::Mat& out);
 /// or 16-bit image of 1..4 channels: the count of non-zero pixels of the
 /// per-channel comparison reduced by "or", without the temporary masks.
 std::int64_t countPixelsWithAnyAtLeast(const cv::Mat& image, double threshold);
+
+/// measureVisibility() from its parts: @p small the image reduced by
+/// downsampleArea4(), @p saturatedPixels of @p pixels at full scale. The
+/// fused front end gathers both in its pass over the image.
+VisibilityMeasures visibilityFromReduced(const cv::Mat& small, int bitDepth, std::int64_t saturatedPixels,
+                                         std::size_t pixels);
 
 }  // namespace avatar::detail

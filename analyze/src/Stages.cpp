@@ -1,6 +1,8 @@
 // The built-in stages of the analysis pipeline, one class each, and the
 // registry that names them. Thesis 3.2-3.4, 3.6.
 
+#include "BufferPool.h"
+#include "FrontEnd.h"
 #include "TargetAssembly.h"
 
 #include <avatar/analyze/ImageColorFilter.h>
@@ -43,7 +45,16 @@ void requireBgr(const AnalysisFrame& frame, Side side, std::string_view stage) {
                               " (put demosaic before it for raw input)");
 }
 
-/// Endian swap and demosaic when the input is raw (thesis 2.2).
+class LightingStage;
+class ColorFilterStage;
+class VisibilityStage;
+
+/// Endian swap and demosaic when the input is raw (thesis 2.2). When the
+/// chain lets it (fuseFrontEnd()), it is also the fused front end: the
+/// lighting, color_filter and visibility stages that follow hand their
+/// per-pixel work to it, and a raw mosaic goes through all of them in one pass
+/// (FrontEnd.h), bit for bit as one stage after the other. Its time is then
+/// theirs too; theirs is what is left (a verdict, a preparation).
 class DemosaicStage final : public ProcessStereoImagePair {
 public:
     explicit DemosaicStage(const StageContext& c)
@@ -52,29 +63,39 @@ public:
                                                                              : DemosaicMethod::Bilinear) {}
     std::string_view name() const override { return "demosaic"; }
     bool hasImageWork() const override { return true; }
-    void processImage(AnalysisFrame& frame, Side side) override {
-        cv::Mat image = frame.original.image(side);
-        if (swap_ && image.depth() == CV_16U) {
-            image = image.clone();
-            swapEndian16(image);
-        }
-        switch (frame.layout.format) {
-            case PixelFormat::Bayer:
-                frame.at(side).image = demosaic(image, frame.layout.bayerPattern, method_);
-                break;
-            case PixelFormat::Mono:
-                cv::cvtColor(image, frame.at(side).image, cv::COLOR_GRAY2BGR);
-                break;
-            case PixelFormat::Bgr:
-                frame.at(side).image = image;
-                break;
-        }
-    }
+    void prepare(AnalysisFrame& frame) override;
+    void processImage(AnalysisFrame& frame, Side side) override;
     void processPair(AnalysisFrame& frame) override { frame.layout.format = PixelFormat::Bgr; }
 
+    /// Only the bilinear demosaic is fused (the edge-aware one is OpenCV's own).
+    bool canFuse() const { return method_ == DemosaicMethod::Bilinear; }
+    void fuse(LightingStage* lighting, ColorFilterStage* filter, VisibilityStage* visibility) {
+        lighting_ = lighting;
+        filter_ = filter;
+        visibility_ = visibility;
+    }
+
 private:
+    /// The stage's own work: demosaic alone.
+    void demosaicOnly(AnalysisFrame& frame, Side side) const;
+    bool fusedFor(const AnalysisFrame& frame) const {
+        return frame.layout.format == PixelFormat::Bayer && detail::frontEndHandles(frame.original.image(Side::Left));
+    }
+
     bool swap_;
     DemosaicMethod method_;
+    LightingStage* lighting_{nullptr};
+    ColorFilterStage* filter_{nullptr};
+    VisibilityStage* visibility_{nullptr};
+    // Built in prepare() for the frame's geometry, read by both sides.
+    std::array<cv::Mat, 3> factors_;
+    cv::Mat factorsOf_;  ///< the corrector's factor image factors_ were split from
+    std::vector<detail::ColorTest> tests_;
+    cv::Size testsSize_;
+    int testsDepth_{-1}, testsBits_{-1};
+    // Per side: buffers reused across frames.
+    std::array<detail::BufferPool, 2> images_;
+    std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
 };
 
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
@@ -82,17 +103,25 @@ class LightingStage final : public ProcessStereoImagePair {
 public:
     explicit LightingStage(const StageContext& c) : corrector_(c.config.lighting, c.configDir) {}
     std::string_view name() const override { return "lighting"; }
-    bool hasImageWork() const override { return corrector_.enabled(); }
+    bool hasImageWork() const override { return corrector_.enabled() && !covered_; }
     void prepare(AnalysisFrame& frame) override {
         if (corrector_.enabled()) corrector_.prepare(frame.original.size());
     }
-    void processImage(AnalysisFrame& frame, Side side) override {
+    void processImage(AnalysisFrame& frame, Side side) override { work(frame, side); }
+
+    /// The fused front end does this stage's per-pixel work from now on.
+    void cover() { covered_ = true; }
+    void work(AnalysisFrame& frame, Side side) const {
+        if (!corrector_.enabled()) return;
         requireBgr(frame, side, name());
         corrector_.apply(writableImage(frame, side), frame.layout.bitDepth);
     }
+    const LightingCorrector& corrector() const { return corrector_; }
+    LightingCorrector& corrector() { return corrector_; }
 
 private:
     LightingCorrector corrector_;
+    bool covered_{false};
 };
 
 /// RGB-ratio or HSV filter, all target types in one pass (thesis 3.3.2).
@@ -100,14 +129,19 @@ class ColorFilterStage final : public ProcessStereoImagePair {
 public:
     explicit ColorFilterStage(const StageContext& c) : types_(c.config.targets.targets) {}
     std::string_view name() const override { return "color_filter"; }
-    bool hasImageWork() const override { return true; }
-    void processImage(AnalysisFrame& frame, Side side) override {
+    bool hasImageWork() const override { return !covered_; }
+    void processImage(AnalysisFrame& frame, Side side) override { work(frame, side); }
+
+    void cover() { covered_ = true; }
+    void work(AnalysisFrame& frame, Side side) const {
         requireBgr(frame, side, name());
         colorFilterMasks(frame.at(side).image, frame.layout.bitDepth, types_, frame.at(side).masks);
     }
+    const std::vector<TargetType>& types() const { return types_; }
 
 private:
     std::vector<TargetType> types_;
+    bool covered_{false};
 };
 
 /// Erode, then feature-AND restore, for the types that ask for it (thesis 3.3.2).
@@ -198,8 +232,11 @@ class VisibilityStage final : public ProcessStereoImagePair {
 public:
     explicit VisibilityStage(const StageContext& c) : limits_(c.config.analysis.visibility) {}
     std::string_view name() const override { return "visibility"; }
-    bool hasImageWork() const override { return true; }
-    void processImage(AnalysisFrame& frame, Side side) override {
+    bool hasImageWork() const override { return !covered_; }
+    void processImage(AnalysisFrame& frame, Side side) override { work(frame, side); }
+
+    void cover() { covered_ = true; }
+    void work(AnalysisFrame& frame, Side side) const {
         requireBgr(frame, side, name());
         frame.at(side).visibility = measureVisibility(frame.at(side).image, frame.layout.bitDepth);
     }
@@ -214,7 +251,117 @@ public:
 
 private:
     VisibilityConfig limits_;
+    bool covered_{false};
 };
+
+// ---- the fused front end ----------------------------------------------------
+
+void DemosaicStage::demosaicOnly(AnalysisFrame& frame, Side side) const {
+    cv::Mat image = frame.original.image(side);
+    if (swap_ && image.depth() == CV_16U) {
+        image = image.clone();
+        swapEndian16(image);
+    }
+    switch (frame.layout.format) {
+        case PixelFormat::Bayer:
+            frame.at(side).image = demosaic(image, frame.layout.bayerPattern, method_);
+            break;
+        case PixelFormat::Mono:
+            cv::cvtColor(image, frame.at(side).image, cv::COLOR_GRAY2BGR);
+            break;
+        case PixelFormat::Bgr:
+            frame.at(side).image = image;
+            break;
+    }
+}
+
+void DemosaicStage::prepare(AnalysisFrame& frame) {
+    if (!fusedFor(frame)) return;
+    const cv::Size size = frame.original.size();
+    if (lighting_ != nullptr && lighting_->corrector().enabled()) {
+        LightingCorrector& corrector = lighting_->corrector();
+        corrector.prepare(size);  // once per size
+        if (corrector.factors().data != factorsOf_.data) {
+            cv::split(corrector.factors(), factors_.data());
+            factorsOf_ = corrector.factors();
+        }
+    }
+    const int depth = frame.original.image(Side::Left).depth();
+    if (filter_ != nullptr && (size != testsSize_ || depth != testsDepth_ || frame.layout.bitDepth != testsBits_)) {
+        tests_.clear();
+        for (const TargetType& t : filter_->types()) tests_.emplace_back(t, size, depth, frame.layout.bitDepth);
+        testsSize_ = size;
+        testsDepth_ = depth;
+        testsBits_ = frame.layout.bitDepth;
+    }
+}
+
+void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
+    if (!fusedFor(frame)) {
+        // What the fused pass does not take goes through the stages one by one.
+        demosaicOnly(frame, side);
+        if (lighting_ != nullptr) lighting_->work(frame, side);
+        if (filter_ != nullptr) filter_->work(frame, side);
+        if (visibility_ != nullptr) visibility_->work(frame, side);
+        return;
+    }
+    const std::size_t i = side == Side::Left ? 0 : 1;
+    const cv::Mat& mosaic = frame.original.image(side);
+    detail::FrontEndInput in;
+    in.mosaic = mosaic;
+    in.pattern = frame.layout.bayerPattern;
+    in.bitDepth = frame.layout.bitDepth;
+    in.endianSwap = swap_;
+    in.factors = lighting_ != nullptr && lighting_->corrector().enabled() ? &factors_ : nullptr;
+    in.tests = filter_ != nullptr ? &tests_ : nullptr;
+    in.visibility = visibility_ != nullptr;
+    detail::FrontEndResult out;
+    out.bgr = images_[i].get(mosaic.size(), CV_MAKETYPE(mosaic.depth(), 3));
+    out.masks.resize(tests_.size());
+    if (in.tests != nullptr)
+        for (cv::Mat& m : out.masks) m = masks_[i].get(mosaic.size(), CV_8UC1);
+    detail::runFrontEnd(in, out);
+    ImageWork& work = frame.at(side);
+    work.image = std::move(out.bgr);
+    if (in.tests != nullptr) work.masks = std::move(out.masks);
+    if (out.visibility) work.visibility = *out.visibility;
+}
+
+}  // namespace
+
+void detail::fuseFrontEnd(std::vector<std::unique_ptr<ProcessStereoImagePair>>& stages) {
+    const auto is = [&](std::size_t k, auto* type) {
+        return k < stages.size() && dynamic_cast<decltype(type)>(stages[k].get()) != nullptr;
+    };
+    for (std::size_t i = 0; i < stages.size(); ++i) {
+        auto* demosaic = dynamic_cast<DemosaicStage*>(stages[i].get());
+        if (demosaic == nullptr) continue;
+        if (!demosaic->canFuse()) return;
+        std::size_t j = i + 1;
+        LightingStage* lighting = is(j, static_cast<LightingStage*>(nullptr))
+                                      ? static_cast<LightingStage*>(stages[j++].get()) : nullptr;
+        ColorFilterStage* filter = is(j, static_cast<ColorFilterStage*>(nullptr))
+                                       ? static_cast<ColorFilterStage*>(stages[j++].get()) : nullptr;
+        VisibilityStage* visibility = nullptr;
+        for (std::size_t k = j; k < stages.size(); ++k) {
+            if (is(k, static_cast<VisibilityStage*>(nullptr))) {
+                visibility = static_cast<VisibilityStage*>(stages[k].get());
+                break;
+            }
+            // Stages that read the images but never change them.
+            if (!is(k, static_cast<ErodeRestoreStage*>(nullptr)) && !is(k, static_cast<LocateFeaturesStage*>(nullptr)) &&
+                !is(k, static_cast<MatchStage*>(nullptr)) && !is(k, static_cast<TriangulateStage*>(nullptr)))
+                break;
+        }
+        if (lighting != nullptr) lighting->cover();
+        if (filter != nullptr) filter->cover();
+        if (visibility != nullptr) visibility->cover();
+        demosaic->fuse(lighting, filter, visibility);
+        return;  // the first demosaic only
+    }
+}
+
+namespace {
 
 template <typename Stage>
 StageFactory factory() {

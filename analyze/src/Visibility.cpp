@@ -8,12 +8,12 @@
 
 namespace avatar {
 
-VisibilityMeasures measureVisibility(const cv::Mat& bgr, int bitDepth) {
+VisibilityMeasures detail::visibilityFromReduced(const cv::Mat& small, int bitDepth, std::int64_t saturatedPixels,
+                                                std::size_t pixels) {
     const double full = static_cast<double>((1 << bitDepth) - 1);
-    cv::Mat small, channels[3], luma, minChannel;
-    detail::downsampleArea4(bgr, small);  // = cv::resize INTER_AREA, bit for bit, serial
-    small.convertTo(small, CV_32F, 1.0 / full);
-    cv::split(small, channels);
+    cv::Mat scaled, channels[3], luma, minChannel;
+    small.convertTo(scaled, CV_32F, 1.0 / full);
+    cv::split(scaled, channels);
     luma = 0.114f * channels[0] + 0.587f * channels[1] + 0.299f * channels[2];
     cv::Scalar mean, stddev;
     cv::meanStdDev(luma, mean, stddev);
@@ -21,9 +21,15 @@ VisibilityMeasures measureVisibility(const cv::Mat& bgr, int bitDepth) {
     m.contrast = stddev[0];
     minChannel = cv::min(cv::min(channels[0], channels[1]), channels[2]);
     m.haze = cv::mean(minChannel)[0];
-    m.saturatedFraction =
-        static_cast<double>(detail::countPixelsWithAnyAtLeast(bgr, full)) / static_cast<double>(bgr.total());
+    m.saturatedFraction = static_cast<double>(saturatedPixels) / static_cast<double>(pixels);
     return m;
+}
+
+VisibilityMeasures measureVisibility(const cv::Mat& bgr, int bitDepth) {
+    cv::Mat small;
+    detail::downsampleArea4(bgr, small);  // = cv::resize INTER_AREA, bit for bit, serial
+    const double full = static_cast<double>((1 << bitDepth) - 1);
+    return detail::visibilityFromReduced(small, bitDepth, detail::countPixelsWithAnyAtLeast(bgr, full), bgr.total());
 }
 
 VisibilityVerdict judgeVisibility(const VisibilityMeasures& left, const VisibilityMeasures& right,

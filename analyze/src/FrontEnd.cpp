@@ -1,0 +1,259 @@
+#include "FrontEnd.h"
+
+#include "ImageReduce.h"
+#include "KernelClones.h"
+
+#include <avatar/common/Error.h>
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+
+namespace avatar::detail {
+namespace {
+
+// ---------------------------------------------------------------------------
+// Row kernels. Every sample is carried as a float holding its integer value
+// (exact: no sum here exceeds 2^24), so each stage of the chain is one plain
+// loop over contiguous rows that GCC vectorises, and the colour filter gets
+// the planes it wants without de-interleaving.
+// ---------------------------------------------------------------------------
+
+template <typename S>
+AVATAR_KERNEL_CLONES void loadRow(const S* __restrict in, float* __restrict out, int n) {
+    for (int i = 0; i < n; ++i) out[i] = static_cast<float>(static_cast<std::int32_t>(in[i]));
+}
+
+AVATAR_KERNEL_CLONES void loadRowSwapped(const std::uint16_t* __restrict in, float* __restrict out, int n) {
+    for (int i = 0; i < n; ++i) {
+        const std::uint32_t v = in[i];
+        out[i] = static_cast<float>(static_cast<std::int32_t>(((v >> 8) | (v << 8)) & 0xFFFFu));
+    }
+}
+
+/// Bilinear demosaic of one row (interior columns 1..n-2), as cv::cvtColor's
+/// integer formulas: a sample keeps its own colour; at a green site the
+/// horizontal neighbours give the row's other colour ((a+b+1)>>1) and the
+/// vertical ones the third; at a red or blue site the four neighbours give
+/// green ((a+b+c+d+2)>>2) and the four diagonals the third. @p own is 1 at the
+/// columns holding the row's own non-green colour (cr), 0 at green ones, and
+/// @p notOwn its complement: the choice is made by multiplying, exactly (one
+/// term is 0), because GCC vectorises no select between computed values. The
+/// values are non-negative, so truncation is the floor of the shifts.
+AVATAR_KERNEL_CLONES void demosaicRow(const float* __restrict m0, const float* __restrict m1,
+                                      const float* __restrict m2, const float* __restrict own,
+                                      const float* __restrict notOwn, float* __restrict cr,
+                                      float* __restrict green, float* __restrict other, int n) {
+    for (int x = 1; x < n - 1; ++x) {
+        const float s = m1[x];
+        const float h = m1[x - 1] + m1[x + 1];
+        const float v = m0[x] + m2[x];
+        const float d = (m0[x - 1] + m0[x + 1]) + (m2[x - 1] + m2[x + 1]);
+        const float h2 = static_cast<float>(static_cast<std::int32_t>((h + 1.0f) * 0.5f));
+        const float v2 = static_cast<float>(static_cast<std::int32_t>((v + 1.0f) * 0.5f));
+        const float x4 = static_cast<float>(static_cast<std::int32_t>((h + v + 2.0f) * 0.25f));
+        const float d4 = static_cast<float>(static_cast<std::int32_t>((d + 2.0f) * 0.25f));
+        const float a = own[x], b = notOwn[x];
+        cr[x] = s * a + h2 * b;
+        green[x] = x4 * a + s * b;
+        other[x] = d4 * a + v2 * b;
+    }
+}
+
+/// LightingCorrector::apply on one plane: min(sample * factor, full scale),
+/// rounded half up, in single precision as there.
+AVATAR_KERNEL_CLONES void lightRow(const float* __restrict in, const float* __restrict factor, float* __restrict out,
+                                   int n, float full) {
+    for (int i = 0; i < n; ++i) {
+        const float v = std::min(in[i] * factor[i], full);
+        out[i] = static_cast<float>(static_cast<std::int32_t>(v + 0.5f));
+    }
+}
+
+template <typename S>
+AVATAR_KERNEL_CLONES void storeRow(const float* __restrict b, const float* __restrict g, const float* __restrict r,
+                                   S* __restrict out, int n) {
+    for (int i = 0; i < n; ++i) {
+        out[3 * i] = static_cast<S>(static_cast<std::int32_t>(b[i]));
+        out[3 * i + 1] = static_cast<S>(static_cast<std::int32_t>(g[i]));
+        out[3 * i + 2] = static_cast<S>(static_cast<std::int32_t>(r[i]));
+    }
+}
+
+/// Pixels with any channel at or above full scale (measureVisibility's count).
+AVATAR_KERNEL_CLONES std::int32_t countSaturated(const float* __restrict b, const float* __restrict g,
+                                                 const float* __restrict r, int n, float full) {
+    std::int32_t count = 0;
+    for (int i = 0; i < n; ++i) count += static_cast<std::int32_t>((b[i] >= full) | (g[i] >= full) | (r[i] >= full));
+    return count;
+}
+
+AVATAR_KERNEL_CLONES void accumulate(const float* __restrict in, float* __restrict sum, int n) {
+    for (int i = 0; i < n; ++i) sum[i] += in[i];
+}
+
+/// One row of the 4x4-block means from four rows' column sums, rounded to
+/// nearest with ties to even, as downsampleArea4() (cv::resize INTER_AREA).
+template <typename S>
+void emitBlocks(const float* const sums[3], S* out, int blocks) {
+    for (int x = 0; x < blocks; ++x)
+        for (int c = 0; c < 3; ++c) {
+            const float* s = sums[c] + 4 * x;
+            const auto sum = static_cast<std::uint32_t>(static_cast<std::int32_t>((s[0] + s[1]) + (s[2] + s[3])));
+            const std::uint32_t q = sum >> 4, r = sum & 15u;
+            out[3 * x + c] = static_cast<S>(q + ((r > 8u) | ((r == 8u) & (q & 1u))));
+        }
+}
+
+/// The colour of the Bayer site (x, y): 0 blue, 1 green, 2 red.
+int siteColour(BayerPattern pattern, int x, int y) {
+    static constexpr int kSites[4][4] = {
+        {0, 1, 1, 2},  // BG: B G / G R
+        {1, 0, 2, 1},  // GB: G B / R G
+        {2, 1, 1, 0},  // RG: R G / G B
+        {1, 2, 0, 1},  // GR: G R / B G
+    };
+    return kSites[static_cast<int>(pattern)][(y & 1) * 2 + (x & 1)];
+}
+
+/// @p image itself when it has @p size and @p type, else a new buffer.
+void prepareImage(cv::Mat& image, cv::Size size, int type) {
+    if (image.type() != type || image.size() != size || !image.isContinuous()) image = cv::Mat(size, type);
+}
+
+template <typename S>
+void run(const FrontEndInput& in, FrontEndResult& out) {
+    const cv::Mat& mosaic = in.mosaic;
+    const int w = mosaic.cols, h = mosaic.rows;
+    const int depth = mosaic.depth();
+    const std::size_t n = static_cast<std::size_t>(w);
+    prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3));
+    const std::size_t types = in.tests != nullptr ? in.tests->size() : 0;
+    out.masks.resize(types);
+    for (cv::Mat& mask : out.masks) prepareImage(mask, mosaic.size(), CV_8UC1);
+
+    // Rows: three of the mosaic (a ring), the demosaiced and the corrected
+    // planes, the visibility's column sums; the per-column role of each row parity.
+    std::vector<float> rows(13 * n, 0.0f);
+    float* mosaicRow[3] = {rows.data(), rows.data() + n, rows.data() + 2 * n};
+    float* demosaiced[3] = {rows.data() + 3 * n, rows.data() + 4 * n, rows.data() + 5 * n};
+    float* corrected[3] = {rows.data() + 6 * n, rows.data() + 7 * n, rows.data() + 8 * n};
+    float* sums[3] = {rows.data() + 9 * n, rows.data() + 10 * n, rows.data() + 11 * n};
+    std::vector<float> ownColumn(2 * n), greenColumn(2 * n);
+    int ownColour[2], otherColour[2];
+    for (int parity = 0; parity < 2; ++parity) {
+        const int even = siteColour(in.pattern, 0, parity), odd = siteColour(in.pattern, 1, parity);
+        ownColour[parity] = even == 1 ? odd : even;
+        otherColour[parity] = 2 - ownColour[parity];
+        for (int x = 0; x < w; ++x) {
+            const bool isOwn = siteColour(in.pattern, x, parity) != 1;
+            ownColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 1.0f : 0.0f;
+            greenColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 0.0f : 1.0f;
+        }
+    }
+    std::vector<std::uint8_t> scratch(n);
+
+    const float full = static_cast<float>((1 << in.bitDepth) - 1);
+    const bool reduce = in.visibility && w % 4 == 0 && h % 4 == 0;
+    cv::Mat small;
+    if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));
+    std::int64_t saturated = 0;
+
+    int loaded = -1;  // the last mosaic row loaded
+    int lastSource = -1;
+    for (int y = 0; y < h; ++y) {
+        // The first and last rows copy their neighbour's demosaic, as OpenCV's.
+        const int source = std::clamp(y, 1, h - 2);
+        if (source != lastSource) {
+            while (loaded < source + 1) {
+                ++loaded;
+                float* dst = mosaicRow[loaded % 3];
+                if constexpr (sizeof(S) == 2) {
+                    if (in.endianSwap) loadRowSwapped(mosaic.ptr<std::uint16_t>(loaded), dst, w);
+                    else loadRow(mosaic.ptr<S>(loaded), dst, w);
+                } else {
+                    loadRow(mosaic.ptr<S>(loaded), dst, w);
+                }
+            }
+            const int parity = source & 1;
+            float* own = demosaiced[ownColour[parity]];
+            float* third = demosaiced[otherColour[parity]];
+            demosaicRow(mosaicRow[(source - 1) % 3], mosaicRow[source % 3], mosaicRow[(source + 1) % 3],
+                        ownColumn.data() + parity * n, greenColumn.data() + parity * n, own, demosaiced[1], third,
+                        w);
+            for (float* plane : demosaiced) {  // the first and last columns copy their neighbour's
+                plane[0] = plane[1];
+                plane[w - 1] = plane[w - 2];
+            }
+            lastSource = source;
+        }
+        const float* const* planes = demosaiced;
+        if (in.factors != nullptr) {
+            for (int c = 0; c < 3; ++c) lightRow(demosaiced[c], (*in.factors)[c].ptr<float>(y), corrected[c], w, full);
+            planes = corrected;
+        }
+        const float* b = planes[0];
+        const float* g = planes[1];
+        const float* r = planes[2];
+        storeRow(b, g, r, out.bgr.ptr<S>(y), w);
+
+        for (std::size_t t = 0; t < types; ++t) {
+            const ColorTest& test = (*in.tests)[t];
+            std::uint8_t* mask = out.masks[t].ptr<std::uint8_t>(y);
+            const cv::Rect& win = test.window();
+            if (y < win.y || y >= win.y + win.height) {
+                std::memset(mask, 0, n);
+                continue;
+            }
+            std::memset(mask, 0, static_cast<std::size_t>(win.x));
+            test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
+            std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
+        }
+
+        if (in.visibility) {
+            saturated += countSaturated(b, g, r, w, full);
+            if (reduce) {
+                for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], w);
+                if (y % 4 == 3) {
+                    emitBlocks<S>(sums, small.ptr<S>(y / 4), w / 4);
+                    for (float* s : sums) std::fill(s, s + w, 0.0f);
+                }
+            }
+        }
+    }
+    if (in.visibility)
+        out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total())
+                                : measureVisibility(out.bgr, in.bitDepth);
+    else
+        out.visibility.reset();
+}
+
+}  // namespace
+
+bool frontEndHandles(const cv::Mat& mosaic) {
+    return mosaic.channels() == 1 && (mosaic.depth() == CV_8U || mosaic.depth() == CV_16U) && mosaic.cols >= 4 &&
+           mosaic.rows >= 4;
+}
+
+void runFrontEnd(const FrontEndInput& in, FrontEndResult& out) {
+    if (!frontEndHandles(in.mosaic))
+        throw InvalidArgument("front end: needs an 8- or 16-bit one-channel mosaic of at least 4x4, got " +
+                              cv::typeToString(in.mosaic.type()) + " " + std::to_string(in.mosaic.cols) + "x" +
+                              std::to_string(in.mosaic.rows));
+    const int maxBits = in.mosaic.depth() == CV_8U ? 8 : 16;
+    if (in.bitDepth < 1 || in.bitDepth > maxBits)
+        throw InvalidArgument("front end: bit depth " + std::to_string(in.bitDepth) + " does not fit " +
+                              std::to_string(maxBits) + "-bit samples");
+    if (in.factors != nullptr)
+        for (const cv::Mat& f : *in.factors)
+            if (f.type() != CV_32FC1 || f.size() != in.mosaic.size())
+                throw InvalidArgument("front end: the lighting factors must be CV_32FC1 planes of the image's size");
+    if (in.mosaic.depth() == CV_8U)
+        run<std::uint8_t>(in, out);
+    else
+        run<std::uint16_t>(in, out);
+}
+
+}  // namespace avatar::detail

@@ -1,0 +1,62 @@
+#pragma once
+// Internal to avatar::analyze: the fused front end. The per-pixel stages of
+// the chain (demosaic, lighting, color_filter and visibility's measures) done
+// in one pass over the rows of a raw mosaic, so that the image is read once
+// and every intermediate row stays in cache (docs/benchmarks.md). The result
+// is bit for bit what the stages give one after the other: the bilinear
+// demosaic of cv::cvtColor, LightingCorrector::apply, colorFilterMasks and
+// measureVisibility (tests/analyze/FrontEndTest.cpp checks each against them).
+
+#include "ColorFilterKernel.h"
+
+#include <avatar/analyze/ProcessStereoImagePair.h>
+#include <avatar/analyze/Visibility.h>
+#include <avatar/common/ImageFormat.h>
+
+#include <opencv2/core/mat.hpp>
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace avatar::detail {
+
+/// One raw image and what to do with it.
+struct FrontEndInput {
+    cv::Mat mosaic;  ///< CV_8UC1 or CV_16UC1 Bayer mosaic, at least 4x4 (handles())
+    BayerPattern pattern{BayerPattern::BG};
+    int bitDepth{16};         ///< significant bits (full scale 2^bitDepth - 1)
+    bool endianSwap{false};   ///< swap the bytes of 16-bit samples first
+    /// The lighting factors as three planes B, G, R (CV_32FC1 of the image's
+    /// size, LightingCorrector::factors() split); null: no correction.
+    const std::array<cv::Mat, 3>* factors{nullptr};
+    /// The colour tests, compiled for this size and depth; null: no filter.
+    const std::vector<ColorTest>* tests{nullptr};
+    bool visibility{false};   ///< measure the visibility statistics
+};
+
+/// The outputs. A buffer already of the right size and type (continuous) is
+/// written in place, whoever else refers to it (the caller's BufferPool
+/// decides which may be written); otherwise a new one is allocated.
+struct FrontEndResult {
+    cv::Mat bgr;                    ///< the demosaiced (and corrected) image
+    std::vector<cv::Mat> masks;     ///< one per test, CV_8UC1 0/255
+    std::optional<VisibilityMeasures> visibility;
+};
+
+/// Whether the fused pass takes this mosaic: 8 or 16-bit, one channel, at
+/// least 4x4 pixels (smaller images go through the stages one by one).
+bool frontEndHandles(const cv::Mat& mosaic);
+
+/// The pass. Thread-safe: the left and right image may run at once.
+void runFrontEnd(const FrontEndInput& in, FrontEndResult& out);
+
+/// Lets the chain's first bilinear `demosaic` stage run the fused pass for the
+/// built-in `lighting` and `color_filter` stages right after it and the first
+/// `visibility` stage after those (when only built-in stages that leave the
+/// images alone come between); those stages then keep only their non-pixel
+/// work. A stage a registry replaced is never fused. (Stages.cpp)
+void fuseFrontEnd(std::vector<std::unique_ptr<ProcessStereoImagePair>>& stages);
+
+}  // namespace avatar::detail

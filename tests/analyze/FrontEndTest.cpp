@@ -1,0 +1,228 @@
+// The fused front end (analyze/src/FrontEnd.h) against the stages it stands
+// for, run one after the other as the chain ran them before it: cv::cvtColor's
+// bilinear demosaic (demosaic()), LightingCorrector::apply, colorFilterMasks
+// and measureVisibility. Every output must be identical, bit for bit: the
+// image, every mask and every visibility measure, over Bayer patterns, sample
+// depths, bit depths, odd sizes, byte order, lighting and the kinds of
+// colour filter (ratio in float and in double, HSV, brightness bands, windows).
+
+#include "FrontEnd.h"
+
+#include <avatar/analyze/ImageColorFilter.h>
+#include <avatar/analyze/LightingCorrection.h>
+#include <avatar/analyze/Visibility.h>
+#include <avatar/common/Error.h>
+#include <avatar/common/ImageUtils.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace avatar {
+namespace {
+
+/// A mosaic of smooth colour blobs with noise and a few saturated sites, so
+/// the filters pass a fair share of pixels and the demosaic sees edges.
+cv::Mat mosaicOf(cv::Size size, int depth, int bitDepth, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    const double full = std::ldexp(1.0, bitDepth) - 1.0;
+    cv::Mat colour(size, CV_64FC3);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const double fx = 0.05 + 0.2 * u(rng), fy = 0.05 + 0.2 * u(rng);
+    for (int y = 0; y < size.height; ++y)
+        for (int x = 0; x < size.width; ++x)
+            for (int c = 0; c < 3; ++c)
+                colour.at<cv::Vec3d>(y, x)[c] =
+                    0.5 + 0.45 * std::sin(fx * x * (c + 1) + fy * y * (3 - c) + c) * std::cos(0.03 * (x + y));
+    cv::Mat mosaic(size, depth);
+    std::normal_distribution<double> noise(0.0, 0.01);
+    for (int y = 0; y < size.height; ++y)
+        for (int x = 0; x < size.width; ++x) {
+            const int site = (y & 1) * 2 + (x & 1);  // any fixed assignment will do: the pattern decides the meaning
+            const double v = std::clamp(colour.at<cv::Vec3d>(y, x)[site % 3] + noise(rng), 0.0, 1.0);
+            double sample = std::round(v * full);
+            if (u(rng) < 0.01) sample = full;  // clipped sites
+            if (depth == CV_8U) mosaic.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(sample);
+            else mosaic.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(sample);
+        }
+    return mosaic;
+}
+
+std::vector<TargetType> filterTypes(cv::Size size) {
+    std::vector<TargetType> types;
+    TargetType wide;  // limits exact in float for 8-bit only (the 16-bit images take the double kernel)
+    wide.name = "wide";
+    wide.redGreen = {0.7, 1.43};
+    wide.redBlue = {0.61, 1.7};
+    wide.blueGreen = {0.5, 1.9};
+    types.push_back(wide);
+    TargetType simple;  // limits with small denominators: float even at 16 bits
+    simple.name = "simple";
+    simple.redGreen = {0.5, 2.0};
+    simple.redBlue = {0.25, 1e9};
+    simple.brightness = Range{300.0, 1e9};
+    types.push_back(simple);
+    TargetType banded;
+    banded.name = "banded";
+    banded.redGreen = {0.9, 1.1};
+    banded.brightnessBands = {BrightnessBand{{0.0, 600.0}, {0.3, 3.0}, {0.0, 1e9}, {0.0, 1e9}},
+                              BrightnessBand{{601.0, 5000.0}, {0.8, 1.25}, {0.5, 2.0}, {0.0, 1e9}}};
+    types.push_back(banded);
+    TargetType hsv;
+    hsv.name = "hsv";
+    hsv.filter = ColorFilterMethod::Hsv;
+    hsv.hsv.hue = {300.0, 60.0};  // wraps through red
+    hsv.hsv.saturation = {0.1, 0.9};
+    hsv.hsv.value = {0.2, 1.0};
+    types.push_back(hsv);
+    TargetType windowed = wide;
+    windowed.name = "windowed";
+    windowed.window = {size.width / 5, size.height / 3, size.width / 2, size.height / 2};
+    types.push_back(windowed);
+    return types;
+}
+
+LightingConfig lightingConfig(cv::Size size) {
+    LightingConfig l;
+    l.frameAverageEnabled = true;
+    l.gainsRgb = {1.3, 0.9, 1.1};
+    l.patternEnabled = true;
+    l.patternCentrePx = {size.width * 0.45, size.height * 0.55};
+    l.red = {1.2, 0.004};
+    l.green = {0.8, 0.002};
+    l.blue = {1.0, 0.006};
+    return l;
+}
+
+struct Case {
+    cv::Size size;
+    int depth;
+    int bitDepth;
+    BayerPattern pattern;
+    bool lighting;
+    bool swap;
+};
+
+std::string describe(const Case& c) {
+    return std::to_string(c.size.width) + "x" + std::to_string(c.size.height) + (c.depth == CV_8U ? " 8u" : " 16u") +
+           " bits " + std::to_string(c.bitDepth) + " " + std::string(toString(c.pattern)) + (c.lighting ? " lit" : "") +
+           (c.swap ? " swapped" : "");
+}
+
+void expectIdentical(const cv::Mat& a, const cv::Mat& b, const std::string& what) {
+    ASSERT_EQ(a.size(), b.size()) << what;
+    ASSERT_EQ(a.type(), b.type()) << what;
+    cv::Mat diff;
+    cv::absdiff(a.reshape(1), b.reshape(1), diff);
+    EXPECT_EQ(cv::countNonZero(diff), 0) << what;
+}
+
+void checkCase(const Case& c, std::uint64_t seed) {
+    SCOPED_TRACE(describe(c));
+    cv::Mat mosaic = mosaicOf(c.size, c.depth, c.bitDepth, seed);
+    cv::Mat stored = mosaic.clone();  // what the camera delivered: byte-swapped when asked
+    if (c.swap) swapEndian16(stored);
+    const std::vector<TargetType> types = filterTypes(c.size);
+
+    // The stages one by one.
+    cv::Mat bgr = demosaic(mosaic, c.pattern);
+    LightingCorrector corrector(lightingConfig(c.size));
+    std::array<cv::Mat, 3> factors;
+    if (c.lighting) {
+        corrector.prepare(c.size);
+        corrector.apply(bgr, c.bitDepth);
+        cv::split(corrector.factors(), factors.data());
+    }
+    std::vector<cv::Mat> masks;
+    colorFilterMasks(bgr, c.bitDepth, types, masks);
+    const VisibilityMeasures visibility = measureVisibility(bgr, c.bitDepth);
+
+    // The fused pass.
+    std::vector<detail::ColorTest> tests;
+    for (const TargetType& t : types) tests.emplace_back(t, c.size, c.depth, c.bitDepth);
+    detail::FrontEndInput in;
+    in.mosaic = stored;
+    in.pattern = c.pattern;
+    in.bitDepth = c.bitDepth;
+    in.endianSwap = c.swap;
+    in.factors = c.lighting ? &factors : nullptr;
+    in.tests = &tests;
+    in.visibility = true;
+    detail::FrontEndResult out;
+    detail::runFrontEnd(in, out);
+
+    expectIdentical(out.bgr, bgr, "image");
+    ASSERT_EQ(out.masks.size(), masks.size());
+    for (std::size_t t = 0; t < masks.size(); ++t) {
+        expectIdentical(out.masks[t], masks[t], "mask of " + types[t].name);
+        // The filters must have had something to decide.
+        if (t == 0 && c.size.area() >= 1000) {
+            EXPECT_GT(cv::countNonZero(masks[t]), 0) << types[t].name;
+        }
+    }
+    ASSERT_TRUE(out.visibility.has_value());
+    EXPECT_EQ(std::memcmp(&out.visibility->contrast, &visibility.contrast, sizeof(double)), 0);
+    EXPECT_EQ(std::memcmp(&out.visibility->haze, &visibility.haze, sizeof(double)), 0);
+    EXPECT_EQ(std::memcmp(&out.visibility->saturatedFraction, &visibility.saturatedFraction, sizeof(double)), 0);
+    if (c.size.area() >= 1000) {
+        EXPECT_GT(visibility.saturatedFraction, 0.0);
+    }
+
+    // A second run reuses the buffers and gives the same.
+    const uchar* image = out.bgr.data;
+    detail::runFrontEnd(in, out);
+    EXPECT_EQ(out.bgr.data, image);
+    expectIdentical(out.bgr, bgr, "image, second run");
+}
+
+TEST(FrontEnd, EqualsTheStagesOneByOneBitForBit) {
+    std::uint64_t seed = 1;
+    for (const BayerPattern pattern : {BayerPattern::BG, BayerPattern::GB, BayerPattern::RG, BayerPattern::GR})
+        for (const bool lighting : {false, true}) {
+            checkCase({{64, 48}, CV_16U, 16, pattern, lighting, false}, seed++);
+            checkCase({{64, 48}, CV_16U, 12, pattern, lighting, true}, seed++);
+            checkCase({{64, 48}, CV_8U, 8, pattern, lighting, false}, seed++);
+            checkCase({{37, 23}, CV_16U, 14, pattern, lighting, false}, seed++);  // odd: no 4x4 reduction
+            checkCase({{4, 4}, CV_16U, 16, pattern, lighting, false}, seed++);    // the smallest it takes
+            checkCase({{6, 9}, CV_8U, 7, pattern, lighting, false}, seed++);
+        }
+}
+
+TEST(FrontEnd, EqualsTheStagesOnAFullFrame) {
+    checkCase({{1280, 960}, CV_16U, 16, BayerPattern::BG, true, false}, 99);
+    checkCase({{1280, 960}, CV_16U, 12, BayerPattern::GR, false, false}, 100);
+}
+
+TEST(FrontEnd, WithoutFilterOrVisibility) {
+    const cv::Mat mosaic = mosaicOf({40, 20}, CV_16U, 16, 7);
+    detail::FrontEndInput in;
+    in.mosaic = mosaic;
+    detail::FrontEndResult out;
+    detail::runFrontEnd(in, out);
+    expectIdentical(out.bgr, demosaic(mosaic, BayerPattern::BG), "image");
+    EXPECT_TRUE(out.masks.empty());
+    EXPECT_FALSE(out.visibility.has_value());
+}
+
+TEST(FrontEnd, RefusesWhatItDoesNotHandle) {
+    detail::FrontEndResult out;
+    detail::FrontEndInput in;
+    in.mosaic = cv::Mat(3, 8, CV_16UC1, cv::Scalar(1));
+    EXPECT_FALSE(detail::frontEndHandles(in.mosaic));
+    EXPECT_THROW(detail::runFrontEnd(in, out), InvalidArgument);
+    in.mosaic = cv::Mat(8, 8, CV_16UC3);
+    EXPECT_FALSE(detail::frontEndHandles(in.mosaic));
+    in.mosaic = cv::Mat(8, 8, CV_32FC1);
+    EXPECT_FALSE(detail::frontEndHandles(in.mosaic));
+    in.mosaic = cv::Mat(8, 8, CV_8UC1, cv::Scalar(1));
+    in.bitDepth = 12;
+    EXPECT_THROW(detail::runFrontEnd(in, out), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace avatar
