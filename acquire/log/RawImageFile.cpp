@@ -5,11 +5,12 @@
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
 
-#include <boost/crc.hpp>
+#include <zlib.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <optional>
 
 #include <vector>
 
@@ -31,21 +32,30 @@ std::string describe(const cv::Mat& m) {
 
 bool isPng(const fs::path& path) { return path.extension() == ".png"; }
 
-void checkRawSize(const fs::path& path, const std::vector<unsigned char>& bytes,
-                  const RawImageGeometry& g) {
-    const std::size_t expected = g.byteSize();
-    if (bytes.size() != expected)
-        throw FormatError("raw file " + path.string() +
-                          (bytes.size() < expected ? " is truncated: " : " is too large: ") +
-                          std::to_string(bytes.size()) + " bytes, its name says " + describe(g) +
-                          " = " + std::to_string(expected) + " bytes");
+void checkCrc(const fs::path& path, std::uint32_t expected, std::uint32_t actual) {
+    if (actual != expected)
+        throw FormatError("image file " + path.string() + ": checksum mismatch: recorded " + text::hex8(expected) +
+                          ", computed " + text::hex8(actual) + " (the file was altered or damaged)");
 }
 
-cv::Mat decodeRaw(const fs::path& path, const std::vector<unsigned char>& bytes,
-                  const RawImageGeometry& g) {
-    checkRawSize(path, bytes, g);
+void checkRawSize(const fs::path& path, std::size_t size, const RawImageGeometry& g) {
+    const std::size_t expected = g.byteSize();
+    if (size != expected)
+        throw FormatError("raw file " + path.string() + (size < expected ? " is truncated: " : " is too large: ") +
+                          std::to_string(size) + " bytes, its name says " + describe(g) + " = " +
+                          std::to_string(expected) + " bytes");
+}
+
+/// A raw file read straight into the image's samples (no intermediate
+/// buffer), its size checked first ("truncated" says more than a checksum
+/// mismatch), then its CRC-32 when one was recorded, then the byte order.
+cv::Mat readRaw(const fs::path& path, const RawImageGeometry& g, const std::optional<std::uint32_t>& expectedCrc32) {
+    std::size_t size = 0;
+    const fileutil::FileDescriptor fd = fileutil::openForReading(path, "image file", size);
+    checkRawSize(path, size, g);
     cv::Mat image(g.height, g.width, g.cvType());
-    std::copy(bytes.begin(), bytes.end(), image.data);
+    fileutil::readAll(fd.get(), image.data, size, path, "image file");
+    if (expectedCrc32) checkCrc(path, *expectedCrc32, crc32(image.data, size));
     if (g.bytesPerSample() == 2 && g.byteOrder != hostByteOrder()) swapEndian16(image);
     return image;
 }
@@ -68,9 +78,10 @@ cv::Mat decodePng(const fs::path& path, const std::vector<unsigned char>& bytes,
 }  // namespace
 
 std::uint32_t crc32(const void* data, std::size_t size) {
-    boost::crc_32_type crc;
-    crc.process_bytes(data, size);
-    return crc.checksum();
+    // zlib's table-driven (braided) CRC-32: the value of the byte-wise
+    // CRC-32/ISO-HDLC the session logs have always carried, at several times
+    // its speed (docs/benchmarks.md, replay).
+    return static_cast<std::uint32_t>(::crc32_z(0UL, static_cast<const Bytef*>(data), size));
 }
 
 std::string imageFileName(const RawImageName& name, Compression compression) {
@@ -126,21 +137,16 @@ ImageFileRef writeImageFile(const fs::path& directory, const cv::Mat& image, con
 
 cv::Mat readImageFile(const fs::path& path) {
     const RawImageGeometry g = RawImageName::parse(path.filename().string()).geometry;
-    const std::vector<unsigned char> bytes = fileutil::readWholeFile(path, "image file");
-    return isPng(path) ? decodePng(path, bytes, g) : decodeRaw(path, bytes, g);
+    if (!isPng(path)) return readRaw(path, g, std::nullopt);
+    return decodePng(path, fileutil::readWholeFile(path, "image file"), g);
 }
 
 cv::Mat readImageFile(const fs::path& path, std::uint32_t expectedCrc32) {
     const RawImageGeometry g = RawImageName::parse(path.filename().string()).geometry;
+    if (!isPng(path)) return readRaw(path, g, expectedCrc32);
     const std::vector<unsigned char> bytes = fileutil::readWholeFile(path, "image file");
-    // A raw file's size is checked first: "truncated" says more than a checksum mismatch.
-    if (!isPng(path)) checkRawSize(path, bytes, g);
-    const std::uint32_t actual = crc32(bytes.data(), bytes.size());
-    if (actual != expectedCrc32)
-        throw FormatError("image file " + path.string() + ": checksum mismatch: recorded " +
-                          text::hex8(expectedCrc32) + ", computed " + text::hex8(actual) +
-                          " (the file was altered or damaged)");
-    return isPng(path) ? decodePng(path, bytes, g) : decodeRaw(path, bytes, g);
+    checkCrc(path, expectedCrc32, crc32(bytes.data(), bytes.size()));
+    return decodePng(path, bytes, g);
 }
 
 }  // namespace avatar

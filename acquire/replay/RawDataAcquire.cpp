@@ -1,6 +1,7 @@
 #include <avatar/acquire/RawDataAcquire.h>
 
 #include <avatar/common/Logging.h>
+#include <avatar/common/internal/WorkerThread.h>
 #include <avatar/config/ConfigXml.h>
 
 #include <log4cpp/Category.hh>
@@ -17,10 +18,38 @@ log4cpp::Category& logger() { return logging::category("acquire"); }
 
 }  // namespace
 
-RawDataAcquire::RawDataAcquire(std::filesystem::path sessionDirectory) : reader_(std::move(sessionDirectory)) {
+/// The next pair's files, read on a thread of their own.
+struct RawDataAcquire::ReadAhead {
+    detail::WorkerThread thread;
+    std::size_t index{0};                   ///< the entry being read
+    std::future<StereoImagePair> pair;      ///< valid while one is read
+};
+
+RawDataAcquire::RawDataAcquire(std::filesystem::path sessionDirectory)
+    : reader_(std::move(sessionDirectory)), readAhead_(std::make_unique<ReadAhead>()) {
     logger().info("replay of %s: %zu records, %zu damaged lines", reader_.directory().string().c_str(),
                   reader_.entries().size(), reader_.errors().size());
     updateEndState();
+    readAhead();
+}
+
+RawDataAcquire::~RawDataAcquire() = default;
+
+void RawDataAcquire::readAhead() {
+    const auto& entries = reader_.entries();
+    if (position_ >= entries.size() || !entries[position_].ok()) return;
+    const SessionRecord* record = &*entries[position_].record;
+    readAhead_->index = position_;
+    readAhead_->pair = readAhead_->thread.submit([this, record] { return reader_.loadPair(*record); });
+}
+
+StereoImagePair RawDataAcquire::loadEntry(std::size_t index, const SessionRecord& record) {
+    if (readAhead_->pair.valid()) {
+        std::future<StereoImagePair> pending = std::move(readAhead_->pair);
+        if (readAhead_->index == index) return pending.get();  // rethrows what the read threw
+        pending.wait();  // another entry's: never read twice at once
+    }
+    return reader_.loadPair(record);
 }
 
 std::string RawDataAcquire::configSource(std::uint32_t version) const {
@@ -91,6 +120,7 @@ AcquiredPair RawDataAcquire::grab() {
     } catch (const Error& e) {
         error = e.what();
     }
+    readAhead();
     {
         std::lock_guard<std::mutex> lock(mutex_);
         if (error.empty()) {
@@ -112,7 +142,8 @@ AcquiredPair RawDataAcquire::grab() {
 }
 
 AcquiredPair RawDataAcquire::next() {
-    const SessionLogEntry& entry = reader_.entries()[position_++];
+    const std::size_t index = position_++;
+    const SessionLogEntry& entry = reader_.entries()[index];
     if (!entry.ok()) throw FormatError(entry.error);
     const SessionRecord& record = *entry.record;
     const std::string where = reader_.logPath().string() + ":" + std::to_string(entry.line) + ": ";
@@ -129,7 +160,7 @@ AcquiredPair RawDataAcquire::next() {
     }
     AcquiredPair out;
     try {
-        out.pair = reader_.loadPair(record);
+        out.pair = loadEntry(index, record);
     } catch (const Error& e) {
         throw FormatError(where + e.what());
     }

@@ -36,17 +36,43 @@ int FileDescriptor::close() {
     return rc;
 }
 
-std::vector<unsigned char> readWholeFile(const fs::path& path, const std::string& what) {
+FileDescriptor openForReading(const fs::path& path, const std::string& what, std::size_t& size) {
     std::error_code ec;
     const bool regular = fs::is_regular_file(path, ec);
     if (!regular) {
         if (!fs::exists(path, ec)) throw IoError(what + " " + path.string() + " does not exist");
         throw IoError(what + " " + path.string() + " is not a regular file");
     }
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw IoError("cannot open " + what + " " + path.string() + ": " + errnoText(errno));
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) throw IoError("cannot read " + what + " " + path.string());
+    FileDescriptor fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!fd.valid()) throw IoError("cannot open " + what + " " + path.string() + ": " + errnoText(errno));
+    struct stat st {};
+    if (::fstat(fd.get(), &st) != 0) throw IoError("cannot read " + what + " " + path.string() + ": " + errnoText(errno));
+    if (!S_ISREG(st.st_mode)) throw IoError(what + " " + path.string() + " is not a regular file");
+    size = static_cast<std::size_t>(st.st_size);
+    return fd;
+}
+
+void readAll(int fd, void* data, std::size_t size, const fs::path& path, const std::string& what) {
+    auto* p = static_cast<unsigned char*>(data);
+    std::size_t done = 0;
+    while (done < size) {
+        const ssize_t n = ::read(fd, p + done, size - done);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            throw IoError("cannot read " + what + " " + path.string() + ": " + errnoText(errno));
+        }
+        if (n == 0)
+            throw IoError("cannot read " + what + " " + path.string() + ": it ended after " + std::to_string(done) +
+                          " of " + std::to_string(size) + " bytes (changed while being read?)");
+        done += static_cast<std::size_t>(n);
+    }
+}
+
+std::vector<unsigned char> readWholeFile(const fs::path& path, const std::string& what) {
+    std::size_t size = 0;
+    const FileDescriptor fd = openForReading(path, what, size);
+    std::vector<unsigned char> bytes(size);
+    readAll(fd.get(), bytes.data(), size, path, what);
     return bytes;
 }
 

@@ -22,7 +22,7 @@ jobs=${JOBS:-$(nproc)}
 packages=(
   build-essential cmake ninja-build pkg-config ccache
   libopencv-dev libdc1394-dev libtinyxml2-dev nlohmann-json3-dev libyaml-cpp-dev
-  libboost-dev libboost-program-options-dev liblog4cpp5-dev libssl-dev
+  libboost-dev libboost-program-options-dev liblog4cpp5-dev libssl-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev
   clang libclang-rt-14-dev

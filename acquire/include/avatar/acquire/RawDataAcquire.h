@@ -28,6 +28,11 @@
 /// Recovering, and the next acquire() goes on with the next record. As soon as
 /// the last record has been acquired (or reported) status() is Finished, and
 /// acquire() throws an AcquisitionError saying so.
+///
+/// Read-ahead: while the caller works on a pair, the next intact record's
+/// image files are read and checked on a thread of the backend's own, so a
+/// replay costs the analysis only. What acquire() returns or throws is exactly
+/// what reading the record at that moment would give.
 
 #include <avatar/acquire/AcquireStereoImagePair.h>
 #include <avatar/acquire/SessionLog.h>
@@ -35,6 +40,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -55,6 +61,7 @@ public:
     /// avatar::FormatError (SessionLogReader) when the log is missing or has no
     /// valid header; damage after the header is reported pair by pair.
     explicit RawDataAcquire(std::filesystem::path sessionDirectory);
+    ~RawDataAcquire() override;
 
     std::string name() const override { return "replay"; }
     /// Ok, Recovering after a damaged record (message as the AcquisitionError),
@@ -87,6 +94,10 @@ protected:
 
 private:
     AcquiredPair next();
+    /// The pair of entry @p index: the read-ahead's when it read that entry, else read now.
+    StereoImagePair loadEntry(std::size_t index, const SessionRecord& record);
+    /// Starts reading entry position_ ahead when it is an intact record.
+    void readAhead();
     std::string configSource(std::uint32_t version) const;
     std::size_t firstIntactLine() const;
     void updateEndState();
@@ -101,6 +112,9 @@ private:
     std::size_t delivered_{0};
     std::size_t damaged_{0};
     std::string lastError_;
+
+    struct ReadAhead;
+    std::unique_ptr<ReadAhead> readAhead_;  ///< after reader_: stopped before it goes
 };
 
 /// One way in which a replayed result differs from the recorded one.

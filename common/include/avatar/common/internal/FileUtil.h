@@ -39,6 +39,15 @@ private:
 /// IoError message for a file that is missing, not regular or unreadable.
 std::vector<unsigned char> readWholeFile(const std::filesystem::path& path, const std::string& what);
 
+/// Opens a regular file for reading and gives its size, with the IoError
+/// messages of readWholeFile(), so a caller can read() it straight into a
+/// buffer of its own (an image's samples) instead of through a copy.
+FileDescriptor openForReading(const std::filesystem::path& path, const std::string& what, std::size_t& size);
+
+/// Reads exactly @p size bytes (retrying short reads and EINTR); IoError
+/// "cannot read <what> <path>: ..." on an error or an early end of file.
+void readAll(int fd, void* data, std::size_t size, const std::filesystem::path& path, const std::string& what);
+
 /// Writes all @p size bytes to @p fd (retrying short writes and EINTR);
 /// throws avatar::IoError naming @p path.
 void writeAll(int fd, const void* data, std::size_t size, const std::filesystem::path& path);
