@@ -5,7 +5,16 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
+#include <cctype>
+#include <string>
 #include <utility>
+#include <vector>
+
+#include <grp.h>
+#include <pwd.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace avatar {
 
@@ -60,6 +69,107 @@ AcquiredPair AcquireSIPFirewire::grab() {
     cameras_->releaseFrames();
     acquired.pair = StereoImagePair(std::move(leftCopy), std::move(rightCopy), layout, id);
     return acquired;
+}
+
+std::array<CameraFeatureReadback, 2> AcquireSIPFirewire::readFeatures() const { return cameras_->readFeatures(); }
+
+namespace {
+
+/// "crw-rw----" for @p mode.
+std::string modeString(mode_t mode) {
+    std::string m = S_ISCHR(mode) ? "c" : S_ISDIR(mode) ? "d" : S_ISREG(mode) ? "-" : "?";
+    const char* letters = "rwxrwxrwx";
+    for (int bit = 8; bit >= 0; --bit) m += (mode & (1u << bit)) != 0 ? letters[8 - bit] : '-';
+    return m;
+}
+
+std::string userName(uid_t uid) {
+    if (const passwd* p = ::getpwuid(uid)) return p->pw_name;
+    return std::to_string(uid);
+}
+
+std::string groupName(gid_t gid) {
+    if (const group* g = ::getgrgid(gid)) return g->gr_name;
+    return std::to_string(gid);
+}
+
+/// The check of one device node: may this process read and write it?
+BackendCheck checkNode(const std::filesystem::path& node) {
+    BackendCheck c{node.string(), true, ""};
+    struct stat st{};
+    if (::stat(node.c_str(), &st) != 0) {
+        c.ok = false;
+        c.detail = "cannot be examined (it vanished?)";
+        return c;
+    }
+    const std::string owner = modeString(st.st_mode) + " " + userName(st.st_uid) + ":" + groupName(st.st_gid);
+    if (::access(node.c_str(), R_OK | W_OK) == 0) {
+        c.detail = owner + ", readable and writable";
+        return c;
+    }
+    c.ok = false;
+    c.detail = owner + ": this user (" + userName(::geteuid()) +
+               ") cannot read and write it, which libdc1394 needs: add the user to group '" + groupName(st.st_gid) +
+               "' (usermod -aG " + groupName(st.st_gid) +
+               " USER, then log in again) or install a udev rule that gives the group access";
+    return c;
+}
+
+}  // namespace
+
+BackendSurvey surveyFirewire(FirewireBus& bus, const std::filesystem::path& deviceDirectory) {
+    BackendSurvey survey;
+    survey.backend = "firewire";
+
+    // The device nodes the kernel's firewire-core makes, one per node on the bus (the host adapter too).
+    std::vector<std::filesystem::path> nodes;
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(deviceDirectory, ec)) {
+        const std::string name = entry.path().filename().string();
+        if (name.size() > 2 && name.compare(0, 2, "fw") == 0 &&
+            std::all_of(name.begin() + 2, name.end(), [](unsigned char ch) { return std::isdigit(ch) != 0; }))
+            nodes.push_back(entry.path());
+    }
+    std::sort(nodes.begin(), nodes.end());
+    if (nodes.empty())
+        survey.checks.push_back({(deviceDirectory / "fw*").string(), false,
+                                 "no FireWire device nodes: there is no IEEE 1394 host adapter, or its kernel driver "
+                                 "is not loaded (modprobe firewire-ohci; dmesg | grep -i firewire)"});
+    for (const auto& node : nodes) survey.checks.push_back(checkNode(node));
+
+    // What libdc1394 sees.
+    const Enumeration e = bus.enumerate();
+    BackendCheck library{bus.name(), e.status.isOk(), ""};
+    if (!e.status.isOk()) {
+        library.detail = std::string(toString(e.status.code())) + ": " + e.status.detail();
+    } else {
+        library.detail = "started; " + std::to_string(e.guids.size()) + " camera(s) on the bus";
+    }
+    survey.checks.push_back(library);
+    if (e.status.isOk() && e.guids.empty())
+        survey.checks.push_back({"cameras", false,
+                                 "no camera on the bus: check the cable and the cameras' power; after plugging in, "
+                                 "dmesg should show firewire_core creating a device fwN for each camera"});
+    for (const FirewireGuid guid : e.guids) {
+        CameraListing c;
+        c.id = formatGuid(guid);
+        c.model = bus.describe(guid);
+        const OpenResult opened = bus.open(guid);
+        c.reachable = opened.status.isOk() && opened.camera != nullptr;
+        c.detail = "IIDC";
+        if (!c.reachable) {
+            c.detail += "; cannot be opened (" + std::string(toString(opened.status.code())) +
+                        "): " + opened.status.detail();
+            survey.checks.push_back({c.id, false, "on the bus but cannot be opened: " + opened.status.detail()});
+        }
+        survey.cameras.push_back(std::move(c));
+    }
+    return survey;
+}
+
+BackendSurvey surveyFirewire() {
+    const std::unique_ptr<FirewireBus> bus = makeDc1394Bus();
+    return surveyFirewire(*bus);
 }
 
 std::unique_ptr<AcquireSIPFirewire> makeFirewireAcquisition(FirewireOptions options, std::uint32_t groupSize) {

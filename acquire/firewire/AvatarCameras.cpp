@@ -45,6 +45,14 @@ std::array<std::pair<FirewireFeature, const CameraFeature*>, 5> singleFeatures(c
              {FirewireFeature::Gamma, &set.gamma}}};
 }
 
+/// The single-valued feature whose config name is @p name ("gain").
+FirewireFeature firewireFeatureNamed(const std::string& name) {
+    for (const FirewireFeature f : {FirewireFeature::Exposure, FirewireFeature::Shutter, FirewireFeature::Gain,
+                                    FirewireFeature::Brightness, FirewireFeature::Gamma})
+        if (toString(f) == name) return f;
+    throw InvalidArgument("'" + name + "' is not a single-valued FireWire feature");
+}
+
 /// IIDC feature values are 12-bit unsigned integers.
 constexpr double kMaxFeatureValue = 4095.0;
 bool isIidcValue(double v) { return std::isfinite(v) && v >= 0.0 && v <= kMaxFeatureValue && v == std::floor(v); }
@@ -354,10 +362,24 @@ void AvatarCameras::applyFeatures(const CameraFeatureSet& features) {
     applyFeatures(right_, features);
 }
 
+void AvatarCameras::noteMissing(const Camera& camera, std::string_view feature, bool automatic,
+                                const std::string& detail) {
+    const std::string key = formatGuid(camera.guid) + "/" + std::string(feature) + (automatic ? "/auto" : "/manual");
+    for (const std::string& k : reportedMissing_)
+        if (k == key) return;
+    reportedMissing_.push_back(key);
+    logger().warn("FireWire: " + describe(camera.side, camera.guid) + ": " + detail + " (config feature <" +
+                  std::string(feature) + ">" + (automatic ? ", automatic" : "") + "); skipped");
+}
+
 void AvatarCameras::applyFeatures(Camera& camera, const CameraFeatureSet& features) {
     for (const auto& [feature, value] : singleFeatures(features)) {
         const BusStatus s =
             camera.handle->setFeature(feature, static_cast<std::uint32_t>(value->value), value->automatic);
+        if (s.code() == BusStatus::Code::NotFound) {  // the camera lacks it: reported, not an error
+            noteMissing(camera, toString(feature), value->automatic, s.detail());
+            continue;
+        }
         if (!s.isOk())
             throw AcquisitionError(describe(camera.side, camera.guid) + ": cannot set " +
                                    std::string(toString(feature)) +
@@ -367,10 +389,51 @@ void AvatarCameras::applyFeatures(Camera& camera, const CameraFeatureSet& featur
     const WhiteBalance& wb = features.whiteBalance;
     const BusStatus s = camera.handle->setWhiteBalance(static_cast<std::uint32_t>(wb.blueU),
                                                        static_cast<std::uint32_t>(wb.redV), wb.automatic);
+    if (s.code() == BusStatus::Code::NotFound) {
+        noteMissing(camera, "whiteBalance", wb.automatic, s.detail());
+        return;
+    }
     if (!s.isOk())
         throw AcquisitionError(describe(camera.side, camera.guid) + ": cannot set white balance " +
                                (wb.automatic ? "to automatic" : "to " + str(wb.blueU) + "/" + str(wb.redV)) + ": " +
                                s.detail());
+}
+
+std::array<CameraFeatureReadback, 2> AvatarCameras::readFeatures() const {
+    if (!active_ || !left_.handle || !right_.handle)
+        throw AcquisitionError("FireWire cameras not started: apply a configuration first");
+    std::array<CameraFeatureReadback, 2> out;
+    std::size_t i = 0;
+    for (const Camera* camera : {&left_, &right_}) {
+        CameraFeatureReadback& r = out[i++];
+        r.side = camera->side;
+        r.cameraId = formatGuid(camera->guid);
+        for (const std::string& name : cameraFeatureNames()) {
+            FeatureState state;
+            if (name == "whiteBalance") {
+                state = camera->handle->getWhiteBalance();
+            } else {
+                state = camera->handle->getFeature(firewireFeatureNamed(name));
+            }
+            FeatureReading reading;
+            reading.name = name;
+            if (state.status.code() == BusStatus::Code::NotFound) {
+                reading.note = state.status.detail();
+            } else if (!state.status.isOk()) {
+                throw AcquisitionError(describe(camera->side, camera->guid) + ": cannot read " + name + " (" +
+                                       std::string(toString(state.status.code())) + "): " + state.status.detail());
+            } else {
+                reading.present = true;
+                reading.autoAvailable = state.autoAvailable;
+                reading.automatic = state.automatic;
+                reading.value = state.value;
+                reading.redV = state.redV;
+                if (!state.autoAvailable) reading.note = "no automatic mode";
+            }
+            r.features.push_back(std::move(reading));
+        }
+    }
+    return out;
 }
 
 RawFramePair AvatarCameras::grabRawImagePair() {

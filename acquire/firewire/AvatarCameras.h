@@ -19,6 +19,7 @@
 #include <avatar/acquire/AcquireStereoImagePair.h>
 #include <avatar/config/CameraHardwareConfig.h>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -26,6 +27,8 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace avatar {
 
@@ -97,6 +100,12 @@ public:
     /// Gives the frames of the last grab back to the DMA rings (no-op if none).
     void releaseFrames();
 
+    /// The feature set as each camera reports it (FirewireCamera::getFeature()):
+    /// a feature the camera lacks is present = false with the bus's words in
+    /// the note. Throws AcquisitionError naming the camera when not running
+    /// or when a camera cannot be asked.
+    std::array<CameraFeatureReadback, 2> readFeatures() const;
+
     /// Thread-safe. Ok; Recovering (a camera was lost or frames were out of
     /// step; message names it); Failed (not started, cameras not found, or
     /// recovery given up; message says why).
@@ -121,6 +130,9 @@ private:
     void stopCapture();
     void applyFeatures(const CameraFeatureSet& features);
     void applyFeatures(Camera& camera, const CameraFeatureSet& features);
+    /// A feature @p camera lacks (the bus said NotFound): logged once per
+    /// camera and feature, skipped.
+    void noteMissing(const Camera& camera, std::string_view feature, bool automatic, const std::string& detail);
     void bringUp(const CameraHardwareConfig& camera, int busResets);
     void closeCameras();
     void restore(const CameraHardwareConfig& previous, CameraChange change, const std::string& cause);
@@ -139,6 +151,7 @@ private:
     bool needsRecovery_{false};
     int failedRecoveries_{0};
     std::string lostReason_;  ///< why the last camera was lost
+    std::vector<std::string> reportedMissing_;  ///< "<guid>/<feature>/<auto>" already logged
     FirewireDiagnostics diagnostics_;
     mutable std::mutex statusMutex_;
     AcquisitionStatus status_;

@@ -133,6 +133,10 @@ public:
         });
     }
 
+    FeatureState getFeature(FirewireFeature feature) override { return readFeature(toDc1394(feature)); }
+
+    FeatureState getWhiteBalance() override { return readFeature(DC1394_FEATURE_WHITE_BALANCE); }
+
     BusStatus startCapture(std::uint32_t dmaBuffers) override {
         if (capturing_) return BusStatus::error(BusStatus::Code::Rejected, "capture already running");
         dc1394error_t err = dc1394_capture_setup(camera_.get(), dmaBuffers, DC1394_CAPTURE_FLAGS_DEFAULT);
@@ -211,8 +215,54 @@ public:
     }
 
 private:
+    static std::string featureName(dc1394feature_t feature) {
+        const char* name = dc1394_feature_get_string(feature);
+        return name != nullptr ? name : "feature " + std::to_string(static_cast<int>(feature));
+    }
+
+    /// Ok when the camera has @p feature (and, when @p automatic, its automatic
+    /// mode); NotFound when it does not.
+    BusStatus supports(dc1394feature_t feature, bool automatic, bool* autoAvailable = nullptr) {
+        dc1394bool_t present = DC1394_FALSE;
+        dc1394error_t err = dc1394_feature_is_present(camera_.get(), feature, &present);
+        if (err != DC1394_SUCCESS) return fail(BusStatus::Code::Failure, "dc1394_feature_is_present", err);
+        if (present != DC1394_TRUE)
+            return BusStatus::error(BusStatus::Code::NotFound, "the camera has no " + featureName(feature) + " feature");
+        dc1394feature_modes_t modes{};
+        err = dc1394_feature_get_modes(camera_.get(), feature, &modes);
+        if (err != DC1394_SUCCESS) return fail(BusStatus::Code::Failure, "dc1394_feature_get_modes", err);
+        bool hasAuto = false;
+        for (std::uint32_t i = 0; i < modes.num && i < DC1394_FEATURE_MODE_NUM; ++i)
+            hasAuto = hasAuto || modes.modes[i] == DC1394_FEATURE_MODE_AUTO;
+        if (autoAvailable != nullptr) *autoAvailable = hasAuto;
+        if (automatic && !hasAuto)
+            return BusStatus::error(BusStatus::Code::NotFound,
+                                    "the camera has no automatic mode for " + featureName(feature));
+        return BusStatus::ok();
+    }
+
+    FeatureState readFeature(dc1394feature_t feature) {
+        FeatureState state;
+        state.status = supports(feature, false, &state.autoAvailable);
+        if (!state.status.isOk()) return state;
+        dc1394feature_mode_t mode = DC1394_FEATURE_MODE_MANUAL;
+        dc1394error_t err = dc1394_feature_get_mode(camera_.get(), feature, &mode);
+        if (err != DC1394_SUCCESS) {
+            state.status = fail(BusStatus::Code::Failure, "dc1394_feature_get_mode", err);
+            return state;
+        }
+        state.automatic = mode == DC1394_FEATURE_MODE_AUTO;
+        if (feature == DC1394_FEATURE_WHITE_BALANCE)
+            err = dc1394_feature_whitebalance_get_value(camera_.get(), &state.value, &state.redV);
+        else
+            err = dc1394_feature_get_value(camera_.get(), feature, &state.value);
+        if (err != DC1394_SUCCESS) state.status = fail(BusStatus::Code::Failure, "dc1394_feature_get_value", err);
+        return state;
+    }
+
     template <typename SetValue>
     BusStatus setMode(dc1394feature_t feature, bool automatic, SetValue setValue) {
+        if (const BusStatus s = supports(feature, automatic); !s.isOk()) return s;
         dc1394error_t err = dc1394_feature_set_mode(camera_.get(), feature,
                                                     automatic ? DC1394_FEATURE_MODE_AUTO : DC1394_FEATURE_MODE_MANUAL);
         if (err != DC1394_SUCCESS) return fail(BusStatus::Code::Rejected, "dc1394_feature_set_mode", err);
@@ -250,6 +300,15 @@ public:
         if (list)
             for (std::uint32_t i = 0; i < list->num; ++i) result.guids.push_back(list->ids[i].guid);
         return result;
+    }
+
+    std::string describe(FirewireGuid guid) override {
+        if (!context_) return {};
+        const CameraPtr camera(dc1394_camera_new(context_.get(), guid));
+        if (!camera) return {};
+        const std::string vendor = camera->vendor != nullptr ? camera->vendor : "";
+        const std::string model = camera->model != nullptr ? camera->model : "";
+        return vendor.empty() ? model : model.empty() ? vendor : vendor + " " + model;
     }
 
     OpenResult open(FirewireGuid guid) override {

@@ -88,6 +88,18 @@ enum class FirewireFeature { Exposure, Shutter, Gain, Brightness, Gamma };
 /// "exposure", "shutter", "gain", "brightness", "gamma".
 std::string_view toString(FirewireFeature feature);
 
+/// What a camera reports for one feature (FirewireCamera::getFeature(),
+/// getWhiteBalance()).
+struct FeatureState {
+    /// Ok; NotFound when the camera does not have the feature; anything else
+    /// when it could not be asked.
+    BusStatus status;
+    bool autoAvailable{false};  ///< the camera has an automatic mode for it
+    bool automatic{false};      ///< it is in automatic mode now
+    std::uint32_t value{0};     ///< the current value (white balance: blue/U)
+    std::uint32_t redV{0};      ///< white balance only: red/V
+};
+
 /// One captured frame. The pixels live in a DMA buffer owned by the camera:
 /// they stay valid until the frame is given back with FirewireCamera::enqueue(),
 /// capture stops, or the camera is destroyed, whichever comes first.
@@ -119,10 +131,18 @@ public:
     /// Selects Format7 mode 0 with @p settings. Only while not capturing.
     virtual BusStatus setFormat7(const Format7Settings& settings) = 0;
     /// Sets @p feature to manual @p value, or lets the camera adjust it
-    /// (@p automatic; the value is then not written).
+    /// (@p automatic; the value is then not written). NotFound when the
+    /// camera does not have the feature, or (@p automatic) has no automatic
+    /// mode for it: AvatarCameras then skips it and reports it (a camera that
+    /// lacks a feature is not an error).
     virtual BusStatus setFeature(FirewireFeature feature, std::uint32_t value, bool automatic) = 0;
-    /// White balance: blue/U and red/V components, or automatic.
+    /// White balance: blue/U and red/V components, or automatic. NotFound as setFeature().
     virtual BusStatus setWhiteBalance(std::uint32_t blueU, std::uint32_t redV, bool automatic) = 0;
+    /// What the camera reports for @p feature now (its value as the camera
+    /// adjusted it, in automatic mode).
+    virtual FeatureState getFeature(FirewireFeature feature) = 0;
+    /// What the camera reports for its white balance now.
+    virtual FeatureState getWhiteBalance() = 0;
     /// Allocates @p dmaBuffers DMA buffers and starts isochronous transmission.
     virtual BusStatus startCapture(std::uint32_t dmaBuffers) = 0;
     /// The oldest captured frame not yet dequeued, waiting up to @p timeout.
@@ -159,6 +179,9 @@ public:
     virtual std::string name() const = 0;
     /// The GUIDs of the cameras on the bus now.
     virtual Enumeration enumerate() = 0;
+    /// "<vendor> <model>" as the camera with @p guid reports them; empty when
+    /// it cannot be asked (not on the bus, no FireWire support).
+    virtual std::string describe(FirewireGuid guid) = 0;
     /// Opens the camera with @p guid. A camera may outlive the bus object.
     virtual OpenResult open(FirewireGuid guid) = 0;
     /// Resets the bus: every node re-enumerates and isochronous channels and

@@ -450,6 +450,63 @@ std::vector<std::string> AcquireSIPGenICam::listDevices() {
     return out;
 }
 
+std::array<CameraFeatureReadback, 2> AcquireSIPGenICam::readFeatures() const {
+    std::array<CameraFeatureReadback, 2> out;
+    for (Side side : kSides) {
+        const size_t i = static_cast<size_t>(index(side));
+        if (!impl_->cameras[i] || impl_->lost[i] || !impl_->request)
+            throw AcquisitionError(std::string(sideName(side)) + " camera is not open (lost or not configured)");
+        out[i] = impl_->cameras[i]->readFeatures();
+        out[i].cameraId = configuredId(impl_->request->hardware, side);
+    }
+    return out;
+}
+
+BackendSurvey AcquireSIPGenICam::survey() {
+    BackendSurvey s;
+    s.backend = "genicam";
+    std::string interfaces;
+    const unsigned n = arv_get_n_interfaces();
+    for (unsigned i = 0; i < n; ++i) {
+        const char* id = arv_get_interface_id(i);
+        if (id != nullptr) interfaces += std::string(interfaces.empty() ? "" : ", ") + id;
+    }
+    s.checks.push_back({"Aravis",
+                        true,
+                        "library " + std::to_string(arv_get_major_version()) + "." +
+                            std::to_string(arv_get_minor_version()) + "." + std::to_string(arv_get_micro_version()) +
+                            ", interfaces: " +
+                            (interfaces.empty() ? std::string("none") : interfaces)});
+    const std::vector<DeviceInfo> devices = genicam::discoverDevices();
+    BackendCheck discovery{"Aravis discovery", !devices.empty(), ""};
+    if (devices.empty())
+        discovery.detail =
+            "no GenICam camera answered: check power and cable; GigE Vision cameras must be on a subnet of one of "
+            "this host's interfaces, with UDP port 3956 open in the firewall; USB3 Vision cameras need read/write "
+            "access to their /dev/bus/usb node (a udev rule)";
+    else
+        discovery.detail = std::to_string(devices.size()) + " camera(s): " + genicam::describeDevices(devices);
+    s.checks.push_back(discovery);
+    for (const DeviceInfo& d : devices) {
+        CameraListing c;
+        c.id = d.id;
+        c.address = d.address;
+        std::string vendor = d.vendor;
+        std::string model = d.model;
+        const std::string problem = genicam::probeDevice(d, vendor, model);
+        c.model = vendor.empty() ? model : model.empty() ? vendor : vendor + " " + model;
+        c.reachable = problem.empty();
+        c.detail = d.protocol + (d.serial.empty() ? "" : ", serial " + d.serial) +
+                   (d.physicalId.empty() ? "" : ", " + d.physicalId);
+        if (!c.reachable) c.detail += "; cannot be opened: " + problem;
+        s.cameras.push_back(std::move(c));
+        if (!problem.empty())
+            s.checks.push_back({d.id, false, "found by discovery but cannot be opened (another program may control "
+                                             "it, or it is on another subnet): " + problem});
+    }
+    return s;
+}
+
 AcquiredPair AcquireSIPGenICam::grab() { return impl_->grab(); }
 
 void AcquireSIPGenICam::configure(const AvatarConfig& config) { impl_->configure(config.camera); }

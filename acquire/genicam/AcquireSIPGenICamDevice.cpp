@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <sstream>
 
 namespace avatar::genicam {
@@ -61,6 +62,8 @@ std::vector<DeviceInfo> discoverDevices() {
         d.address = text(arv_get_device_address(i));
         d.serial = text(arv_get_device_serial_nbr(i));
         d.protocol = text(arv_get_device_protocol(i));
+        d.vendor = text(arv_get_device_vendor(i));
+        d.model = text(arv_get_device_model(i));
         if (!d.id.empty()) devices.push_back(std::move(d));
     }
     return devices;
@@ -83,6 +86,19 @@ std::string describeDevices(const std::vector<DeviceInfo>& devices) {
     std::vector<std::string> parts;
     for (const auto& d : devices) parts.push_back(d.describe());
     return join(parts, ", ");
+}
+
+std::string probeDevice(const DeviceInfo& device, std::string& vendor, std::string& model) {
+    GErrorSlot error;
+    GObjectPtr<ArvCamera> camera(arv_camera_new(device.id.c_str(), error.out()));
+    if (error || !camera) return error ? error.message() : std::string("Aravis gave no reason");
+    GErrorSlot nameError;
+    const std::string v = text(arv_camera_get_vendor_name(camera.get(), nameError.out()));
+    if (!nameError && !v.empty()) vendor = v;
+    nameError.clear();
+    const std::string m = text(arv_camera_get_model_name(camera.get(), nameError.out()));
+    if (!nameError && !m.empty()) model = m;
+    return "";
 }
 
 // ---------------------------------------------------------------- features
@@ -178,6 +194,18 @@ void Camera::checkBounds(const char* feature, const std::string& configName, dou
     if (!(value >= lo && value <= hi))
         throw InvalidArgument(label_ + ": " + configName + " " + number(value) + " is outside the camera's range " +
                               number(lo) + ".." + number(hi) + " (" + feature + ")");
+}
+
+double Camera::getNumber(const char* feature) const {
+    GErrorSlot error;
+    double value = 0.0;
+    ArvGcNode* node = arv_device_get_feature(arvDevice(), feature);
+    if (node != nullptr && ARV_IS_GC_INTEGER(node))
+        value = static_cast<double>(arv_camera_get_integer(camera_.get(), feature, error.out()));
+    else
+        value = arv_camera_get_float(camera_.get(), feature, error.out());
+    check(std::string("cannot read ") + feature, error);
+    return value;
 }
 
 void Camera::setNumber(const char* feature, double value) {
@@ -584,6 +612,95 @@ GenICamReadback Camera::readBack() const {
         r.frameRateHz = arv_camera_get_frame_rate(cam, error.out());
         check("cannot read the frame rate", error);
     }
+    return r;
+}
+
+CameraFeatureReadback Camera::readFeatures() const {
+    ArvCamera* cam = camera_.get();
+    GErrorSlot error;
+    CameraFeatureReadback r;
+    r.side = side_;
+    const auto notes = [](std::initializer_list<std::string> parts) {
+        std::string out;
+        for (const auto& p : parts)
+            if (!p.empty()) out += (out.empty() ? "" : "; ") + p;
+        return out;
+    };
+    const auto isAuto = [&](const char* feature) {
+        const std::string mode = text(arv_camera_get_string(cam, feature, error.out()));
+        check(std::string("cannot read ") + feature, error);
+        return mode != "Off";
+    };
+
+    // exposure -> ExposureTime (or ExposureTimeAbs), ExposureAuto
+    FeatureReading exposure;
+    exposure.name = "exposure";
+    exposure.present = arv_camera_is_exposure_time_available(cam, nullptr) != FALSE;
+    exposure.autoAvailable = arv_camera_is_exposure_auto_available(cam, nullptr) != FALSE;
+    if (exposure.present) {
+        exposure.value = arv_camera_get_exposure_time(cam, error.out());
+        check("cannot read the exposure time", error);
+    }
+    if (exposure.autoAvailable) {
+        exposure.automatic = arv_camera_get_exposure_time_auto(cam, error.out()) != ARV_AUTO_OFF;
+        check("cannot read ExposureAuto", error);
+    }
+    exposure.note = notes({exposure.present ? "" : "no ExposureTime", exposure.autoAvailable ? "" : "no ExposureAuto"});
+
+    // shutter: an IIDC register with no GenICam counterpart
+    FeatureReading shutter;
+    shutter.name = "shutter";
+    shutter.note = "an IIDC feature: on GenICam <exposure> is the integration time";
+
+    // gain -> Gain (or GainRaw), GainAuto
+    FeatureReading gain;
+    gain.name = "gain";
+    gain.present = arv_camera_is_gain_available(cam, nullptr) != FALSE;
+    gain.autoAvailable = arv_camera_is_gain_auto_available(cam, nullptr) != FALSE;
+    if (gain.present) {
+        gain.value = arv_camera_get_gain(cam, error.out());
+        check("cannot read the gain", error);
+    }
+    if (gain.autoAvailable) {
+        gain.automatic = arv_camera_get_gain_auto(cam, error.out()) != ARV_AUTO_OFF;
+        check("cannot read GainAuto", error);
+    }
+    gain.note = notes({gain.present ? "" : "no Gain", gain.autoAvailable ? "" : "no GainAuto"});
+
+    // whiteBalance -> BalanceRatioSelector Red/Blue + BalanceRatio, BalanceWhiteAuto
+    FeatureReading wb;
+    wb.name = "whiteBalance";
+    wb.present = available("BalanceRatioSelector") && available("BalanceRatio");
+    wb.autoAvailable = available("BalanceWhiteAuto");
+    if (wb.present) {
+        arv_camera_set_string(cam, "BalanceRatioSelector", "Red", error.out());
+        check("cannot set BalanceRatioSelector to Red", error);
+        wb.redV = getNumber("BalanceRatio");
+        arv_camera_set_string(cam, "BalanceRatioSelector", "Blue", error.out());
+        check("cannot set BalanceRatioSelector to Blue", error);
+        wb.value = getNumber("BalanceRatio");
+    }
+    if (wb.autoAvailable) wb.automatic = isAuto("BalanceWhiteAuto");
+    wb.note = notes({wb.present ? "" : "no BalanceRatio", wb.autoAvailable ? "" : "no BalanceWhiteAuto"});
+
+    // brightness -> BlackLevel, BlackLevelAuto
+    FeatureReading brightness;
+    brightness.name = "brightness";
+    brightness.present = available("BlackLevel");
+    brightness.autoAvailable = available("BlackLevelAuto");
+    if (brightness.present) brightness.value = getNumber("BlackLevel");
+    if (brightness.autoAvailable) brightness.automatic = isAuto("BlackLevelAuto");
+    brightness.note =
+        notes({brightness.present ? "" : "no BlackLevel", brightness.autoAvailable ? "" : "no BlackLevelAuto"});
+
+    // gamma -> Gamma; never automatic
+    FeatureReading gamma;
+    gamma.name = "gamma";
+    gamma.present = available("Gamma");
+    if (gamma.present) gamma.value = getNumber("Gamma");
+    gamma.note = notes({gamma.present ? "" : "no Gamma", "GenICam has no automatic gamma"});
+
+    r.features = {exposure, shutter, gain, wb, brightness, gamma};
     return r;
 }
 

@@ -61,6 +61,8 @@ struct DeviceInfo {
     std::string address;     ///< IP address (GigE Vision)
     std::string serial;
     std::string protocol;    ///< "GigEVision", "USB3Vision"
+    std::string vendor;      ///< as discovery reports it, e.g. "Aravis"
+    std::string model;       ///< as discovery reports it, e.g. "Fake"
     /// "Aravis-Fake-GV01 (127.0.0.1, GigEVision)"
     std::string describe() const;
 };
@@ -71,6 +73,10 @@ std::vector<DeviceInfo> discoverDevices();
 std::optional<DeviceInfo> findDevice(const std::vector<DeviceInfo>& devices, const std::string& wanted);
 /// "A (..), B (..)" or "none".
 std::string describeDevices(const std::vector<DeviceInfo>& devices);
+/// Opens @p device for a moment and closes it again: "" when it could be
+/// opened (and fills @p vendor and @p model from the camera itself), else
+/// Aravis's reason.
+std::string probeDevice(const DeviceInfo& device, std::string& vendor, std::string& model);
 
 /// Region of interest and pixel format of one camera.
 struct Geometry {
@@ -198,6 +204,10 @@ public:
     cv::Mat copyImage(const HeldBuffer& buffer, bool endianSwap) const;
 
     GenICamReadback readBack() const;
+    /// The feature set as this camera reports it (cameraId left empty).
+    /// Reading the white balance selects BalanceRatioSelector Red, then Blue:
+    /// the one register this writes, which selects what BalanceRatio shows.
+    CameraFeatureReadback readFeatures() const;
 
 private:
     ArvDevice* arvDevice() const;
@@ -207,6 +217,8 @@ private:
         if (error) fail(what, error);
     }
     void checkBounds(const char* feature, const std::string& configName, double value) const;
+    /// Reads a float or integer feature as a number.
+    double getNumber(const char* feature) const;
     void setNumber(const char* feature, double value);
     void setEnum(const char* feature, const char* value);
     void setAutoMode(const char* feature, bool automatic);

@@ -77,6 +77,44 @@ RecordedConfig RawDataAcquire::initialConfig() const {
     return {readConfigString(*xml, configSource(version)), version, configSource(version)};
 }
 
+std::array<CameraFeatureReadback, 2> RawDataAcquire::readFeatures() const {
+    AvatarConfig config;
+    AcquisitionId ids;
+    if (lastRecord_) {
+        const std::uint32_t version = lastRecord_->configVersion;
+        const auto xml = reader_.configXml(version);
+        if (!xml)
+            throw NotAvailable("session " + reader_.directory().string() + " does not hold configuration " +
+                               std::to_string(version) + " (the record that applied it is damaged)");
+        config = readConfigString(*xml, configSource(version));
+        ids = lastRecord_->acquisition;
+    } else {
+        config = initialConfig().config;
+        ids = reader_.records().front().acquisition;  // initialConfig() found an intact record
+    }
+    const CameraFeatureSet& f = config.camera.features;
+    const auto reading = [](const std::string& name, const CameraFeature& feature) {
+        FeatureReading r;
+        r.name = name;
+        r.present = true;
+        r.automatic = feature.automatic;
+        r.value = feature.value;
+        r.note = "recorded: a replay cannot adjust it";
+        return r;
+    };
+    std::array<CameraFeatureReadback, 2> out;
+    for (const Side side : {Side::Left, Side::Right}) {
+        CameraFeatureReadback& r = out[side == Side::Left ? 0 : 1];
+        r.side = side;
+        r.cameraId = side == Side::Left ? ids.left.cameraId : ids.right.cameraId;
+        FeatureReading wb = reading("whiteBalance", {f.whiteBalance.blueU, f.whiteBalance.automatic});
+        wb.redV = f.whiteBalance.redV;
+        r.features = {reading("exposure", f.exposure), reading("shutter", f.shutter), reading("gain", f.gain), wb,
+                      reading("brightness", f.brightness), reading("gamma", f.gamma)};
+    }
+    return out;
+}
+
 std::size_t RawDataAcquire::firstIntactLine() const {
     for (const SessionLogEntry& entry : reader_.entries())
         if (entry.ok()) return entry.line;

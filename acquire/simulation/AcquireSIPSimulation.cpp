@@ -32,6 +32,23 @@ void AcquireSIPSimulation::setCameraIds(std::string left, std::string right) {
     rightId_ = std::move(right);
 }
 
+std::array<CameraFeatureReadback, 2> AcquireSIPSimulation::readFeatures() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::array<CameraFeatureReadback, 2> out;
+    for (const Side side : {Side::Left, Side::Right}) {
+        CameraFeatureReadback& r = out[side == Side::Left ? 0 : 1];
+        r.side = side;
+        r.cameraId = side == Side::Left ? leftId_ : rightId_;
+        for (const std::string& name : cameraFeatureNames()) {
+            FeatureReading f;
+            f.name = name;
+            f.note = "the simulated camera has no " + name + " control: the scene's <sensor> sets its response";
+            r.features.push_back(std::move(f));
+        }
+    }
+    return out;
+}
+
 AcquiredPair AcquireSIPSimulation::grab() {
     Scene scene;
     RenderOptions options;

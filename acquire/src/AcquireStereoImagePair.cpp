@@ -29,6 +29,10 @@ AcquiredPair AcquireStereoImagePair::acquire() {
     return acquired;
 }
 
+std::array<CameraFeatureReadback, 2> AcquireStereoImagePair::readFeatures() const {
+    throw NotAvailable("the " + name() + " backend has no cameras whose features could be read back");
+}
+
 void AcquireStereoImagePair::applyConfig(const AvatarConfig& config) {
     configure(config);  // throws and leaves everything as it was if it cannot
     if (member_ != 0) {

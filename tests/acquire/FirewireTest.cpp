@@ -1,6 +1,7 @@
 // AvatarCameras and AcquireSIPFirewire against a scripted FireWire bus
 // (ScriptedFirewireBus.h), and the real libdc1394 bus on a machine without one.
 #include "ScriptedFirewireBus.h"
+#include "TempDir.h"
 #include "TestUtil.h"
 
 #include <avatar/acquire/AcquireSIPFirewire.h>
@@ -10,7 +11,12 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -661,6 +667,130 @@ TEST_F(FirewireTest, StopReleasesTheCameras) {
     EXPECT_EQ(cameras->status().message, "FireWire cameras stopped");
 }
 
+// ---- features a camera lacks, feature readback, survey --------------------------------------------
+
+TEST_F(FirewireTest, FeatureACameraLacksIsSkippedAndReportedNotAFailure) {
+    script->absent[kRight] = {"gain", "whiteBalance", "exposure auto"};
+    auto acquisition = makeAcquisition();
+    CameraHardwareConfig c = testCamera();
+    c.features.exposure = {0, true};  // the right camera has exposure, but no automatic exposure
+    AvatarConfig config;
+    config.camera = c;
+    acquisition->applyConfig(config);  // does not throw
+    EXPECT_EQ(acquisition->status().state, State::Ok);
+    // Everything else still went to both cameras.
+    EXPECT_EQ(script->callsFrom(0, "feature " + R + " brightness"),
+              (std::vector<std::string>{"feature " + R + " brightness 12 manual"}));
+    EXPECT_EQ(script->callsFrom(0, "feature " + R + " gamma"),
+              (std::vector<std::string>{"feature " + R + " gamma 1 auto"}));
+
+    const auto features = acquisition->readFeatures();
+    EXPECT_EQ(features[0].side, Side::Left);
+    EXPECT_EQ(features[0].cameraId, L);
+    EXPECT_EQ(features[1].cameraId, R);
+    ASSERT_EQ(features[0].features.size(), cameraFeatureNames().size());
+    for (std::size_t i = 0; i < cameraFeatureNames().size(); ++i)
+        EXPECT_EQ(features[1].features[i].name, cameraFeatureNames()[i]);
+    // The left camera has everything, set as configured.
+    const FeatureReading& leftWb = features[0].feature("whiteBalance");
+    EXPECT_TRUE(leftWb.present);
+    EXPECT_EQ(leftWb.value, 80.0);
+    EXPECT_EQ(leftWb.redV, 60.0);
+    EXPECT_FALSE(leftWb.automatic);
+    EXPECT_TRUE(features[0].feature("exposure").automatic);
+    EXPECT_EQ(features[0].feature("brightness").value, 12.0);
+    // The right camera lacks gain and white balance (named), and has exposure without its automatic mode.
+    const FeatureReading& gain = features[1].feature("gain");
+    EXPECT_FALSE(gain.present);
+    EXPECT_TRUE(contains(gain.note, "no gain feature"));
+    EXPECT_FALSE(features[1].feature("whiteBalance").present);
+    const FeatureReading& exposure = features[1].feature("exposure");
+    EXPECT_TRUE(exposure.present);
+    EXPECT_FALSE(exposure.autoAvailable);
+    EXPECT_FALSE(exposure.automatic);
+    EXPECT_EQ(features[1].feature("shutter").value, 400.0);
+    EXPECT_NE(messageOf<InvalidArgument>([&] { features[1].feature("zoom"); }).find("'zoom'"), std::string::npos);
+}
+
+TEST_F(FirewireTest, AutomaticFeaturesReadBackWhatTheCameraChose) {
+    script->autoValues[kLeft]["gain"] = {310, 320, 321};
+    auto acquisition = makeAcquisition();
+    acquisition->applyConfig(testConfig());  // gain automatic
+    EXPECT_EQ(acquisition->readFeatures()[0].feature("gain").value, 310.0);
+    EXPECT_EQ(acquisition->readFeatures()[0].feature("gain").value, 320.0);
+    const auto settled = acquisition->readFeatures();
+    EXPECT_EQ(settled[0].feature("gain").value, 321.0);
+    EXPECT_TRUE(settled[0].feature("gain").automatic);
+    EXPECT_TRUE(settled[0].feature("gain").autoAvailable);
+}
+
+TEST_F(FirewireTest, ReadingFeaturesBeforeTheCamerasStartIsAnError) {
+    auto acquisition = makeAcquisition();
+    EXPECT_TRUE(contains(messageOf<AcquisitionError>([&] { acquisition->readFeatures(); }), "not started"));
+}
+
+TEST_F(FirewireTest, SurveyListsTheCamerasAndChecksTheDeviceNodes) {
+    avatar::test::TempDir dev("avatar-fw-dev");
+    for (const char* node : {"fw0", "fw1", "fwx", "video0"}) std::ofstream(dev / node) << "";
+    std::filesystem::permissions(dev / "fw0", std::filesystem::perms::owner_read | std::filesystem::perms::owner_write |
+                                                  std::filesystem::perms::group_read |
+                                                  std::filesystem::perms::group_write |
+                                                  std::filesystem::perms::others_read |
+                                                  std::filesystem::perms::others_write);
+    std::filesystem::permissions(dev / "fw1", std::filesystem::perms::none);
+    ScriptedBus bus(script);
+    const BackendSurvey s = surveyFirewire(bus, dev.path());
+    EXPECT_EQ(s.backend, "firewire");
+    ASSERT_GE(s.checks.size(), 3u);
+    EXPECT_EQ(s.checks[0].what, (dev / "fw0").string());  // fwx and video0 are not FireWire nodes
+    EXPECT_TRUE(s.checks[0].ok) << s.checks[0].detail;
+    EXPECT_TRUE(contains(s.checks[0].detail, "-rw-"));
+    EXPECT_EQ(s.checks[1].what, (dev / "fw1").string());
+    // fw1 (mode 000) fails for anyone but root, who may read and write anything: check it as an
+    // unprivileged user in a child process when the test runs as root.
+    const auto checkUnreadable = [&](const BackendSurvey& survey) {
+        return survey.checks.size() > 1 && !survey.checks[1].ok &&
+               survey.checks[1].detail.find("---------- ") != std::string::npos &&
+               survey.checks[1].detail.find("cannot read and write it") != std::string::npos &&
+               survey.checks[0].ok && !survey.ok();
+    };
+    if (::geteuid() != 0) {
+        EXPECT_TRUE(checkUnreadable(s)) << s.checks[1].detail;
+    } else {
+        const pid_t child = ::fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            if (::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(3);
+            ScriptedBus childBus(script);
+            ::_exit(checkUnreadable(surveyFirewire(childBus, dev.path())) ? 0 : 1);
+        }
+        int status = 0;
+        ::waitpid(child, &status, 0);
+        ASSERT_TRUE(WIFEXITED(status));
+        if (WEXITSTATUS(status) == 3) GTEST_SKIP() << "cannot become an unprivileged user to check permissions";
+        EXPECT_EQ(WEXITSTATUS(status), 0) << "as user 65534 the survey must say fw1 cannot be read and written";
+    }
+    EXPECT_EQ(s.checks[2].what, "scripted");
+    EXPECT_TRUE(s.checks[2].ok);
+    EXPECT_TRUE(contains(s.checks[2].detail, "2 camera(s) on the bus"));
+    ASSERT_EQ(s.cameras.size(), 2u);
+    EXPECT_EQ(s.cameras[0].id, L);
+    EXPECT_EQ(s.cameras[1].id, R);
+    EXPECT_EQ(s.cameras[0].model, "Scripted IIDC camera");
+    EXPECT_TRUE(s.cameras[0].reachable);
+    EXPECT_TRUE(script->violations.empty());
+
+    // No nodes, no cameras: both are failed checks that say what to do.
+    avatar::test::TempDir empty("avatar-fw-none");
+    script->enumerations = {found({})};
+    const BackendSurvey none = surveyFirewire(bus, empty.path());
+    EXPECT_FALSE(none.ok());
+    EXPECT_TRUE(contains(none.checks.front().detail, "modprobe firewire-ohci"));
+    EXPECT_EQ(none.checks.back().what, "cameras");
+    EXPECT_FALSE(none.checks.back().ok);
+    EXPECT_TRUE(none.cameras.empty());
+}
+
 // ---- the real bus -------------------------------------------------------------------------------
 
 TEST(Dc1394Bus, ReportsCleanlyThatThereAreNoCamerasHere) {
@@ -702,6 +832,22 @@ TEST(Dc1394Bus, ReportsCleanlyThatThereAreNoCamerasHere) {
     EXPECT_EQ(acquisition.status().message, message);
     EXPECT_EQ(messageOf<AcquisitionError>([&] { acquisition.acquire(); }),
               "FireWire cameras not started: apply a configuration first");
+}
+
+TEST(Dc1394Bus, SurveySaysWhatThisMachineLacks) {
+    const BackendSurvey s = surveyFirewire();
+    ASSERT_FALSE(s.checks.empty());
+    bool nodes = false;
+    for (const auto& entry : std::filesystem::directory_iterator("/dev")) {
+        const std::string name = entry.path().filename().string();
+        nodes = nodes || (name.size() > 2 && name.rfind("fw", 0) == 0 &&
+                          name.find_first_not_of("0123456789", 2) == std::string::npos);
+    }
+    if (nodes) GTEST_SKIP() << "this machine has FireWire device nodes";
+    EXPECT_FALSE(s.ok());
+    EXPECT_EQ(s.checks.front().what, "/dev/fw*");
+    EXPECT_TRUE(contains(s.checks.front().detail, "no FireWire device nodes"));
+    EXPECT_TRUE(s.cameras.empty());
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -284,6 +285,75 @@ TEST_F(GenICamTest, FeaturesAreWrittenToTheRunningCamerasAndReadBack) {
     acquire.applyConfig(c);
     EXPECT_EQ(acquire.status().state, AcquisitionStatus::State::Ok);
     acquire.acquire();
+}
+
+TEST_F(GenICamTest, FeatureReadbackSaysWhatEachCameraHasAndLacks) {
+    AvatarConfig c = config();
+    c.camera.features.exposure = {12500.0, false};
+    c.camera.features.gain = {3.0, true};  // GainAuto exists on the fake camera
+    AcquireSIPGenICam acquire(c, fastOptions());
+    const auto features = acquire.readFeatures();
+    for (const Side side : {Side::Left, Side::Right}) {
+        const CameraFeatureReadback& r = features[side == Side::Left ? 0 : 1];
+        EXPECT_EQ(r.side, side);
+        EXPECT_EQ(r.cameraId, side == Side::Left ? "Aravis-Fake-GV01" : "Aravis-Fake-GV02");
+        ASSERT_EQ(r.features.size(), cameraFeatureNames().size());
+        const FeatureReading& exposure = r.feature("exposure");
+        EXPECT_TRUE(exposure.present);
+        EXPECT_DOUBLE_EQ(exposure.value, 12500.0);
+        EXPECT_FALSE(exposure.autoAvailable);  // no ExposureAuto
+        EXPECT_EQ(exposure.note, "no ExposureAuto");
+        const FeatureReading& gain = r.feature("gain");
+        EXPECT_TRUE(gain.present);
+        EXPECT_TRUE(gain.autoAvailable);
+        EXPECT_TRUE(gain.automatic);
+        EXPECT_DOUBLE_EQ(gain.value, 0.0);  // the value before auto: the fake camera does not adjust it
+        EXPECT_EQ(gain.note, "");
+        // What the fake camera lacks, by name, and no error.
+        EXPECT_FALSE(r.feature("whiteBalance").present);
+        EXPECT_EQ(r.feature("whiteBalance").note, "no BalanceRatio; no BalanceWhiteAuto");
+        EXPECT_FALSE(r.feature("brightness").present);
+        EXPECT_FALSE(r.feature("gamma").present);
+        EXPECT_FALSE(r.feature("shutter").present);
+        EXPECT_NE(r.feature("shutter").note.find("IIDC"), std::string::npos);
+        // The readback agrees with the older readBack().
+        const GenICamReadback rb = acquire.readBack(side);
+        EXPECT_DOUBLE_EQ(*rb.exposureUs, exposure.value);
+        EXPECT_DOUBLE_EQ(*rb.gain, gain.value);
+    }
+    // Auto requested where the camera has no automatic mode: skipped, reported by readFeatures, not an error.
+    c.camera.features.exposure = {12500.0, true};
+    acquire.applyConfig(c);
+    EXPECT_FALSE(acquire.readFeatures()[0].feature("exposure").automatic);
+    acquire.acquire();
+}
+
+TEST_F(GenICamTest, SurveyListsBothFakeCamerasWithTheirModel) {
+    const BackendSurvey s = AcquireSIPGenICam::survey();
+    EXPECT_EQ(s.backend, "genicam");
+    EXPECT_TRUE(s.ok());
+    ASSERT_EQ(s.checks.size(), 2u);
+    EXPECT_EQ(s.checks[0].what, "Aravis");
+    EXPECT_NE(s.checks[0].detail.find("library 0.8."), std::string::npos) << s.checks[0].detail;
+    EXPECT_NE(s.checks[1].detail.find("2 camera(s)"), std::string::npos) << s.checks[1].detail;
+    ASSERT_EQ(s.cameras.size(), 2u);
+    std::vector<std::string> ids{s.cameras[0].id, s.cameras[1].id};
+    std::sort(ids.begin(), ids.end());
+    EXPECT_EQ(ids, (std::vector<std::string>{"Aravis-Fake-GV01", "Aravis-Fake-GV02"}));
+    for (const CameraListing& c : s.cameras) {
+        EXPECT_EQ(c.model, "Aravis Fake");
+        EXPECT_TRUE(c.reachable) << c.detail;
+        EXPECT_EQ(c.address, c.id == "Aravis-Fake-GV01" ? "127.0.0.1" : "127.0.0.2");
+        EXPECT_NE(c.detail.find("GigEVision"), std::string::npos) << c.detail;
+    }
+
+    // With no camera on the network the discovery check fails and says what to look at.
+    left_.stop();
+    right_.stop();
+    const BackendSurvey none = AcquireSIPGenICam::survey();
+    EXPECT_FALSE(none.ok());
+    EXPECT_TRUE(none.cameras.empty());
+    EXPECT_NE(none.checks.back().detail.find("no GenICam camera answered"), std::string::npos);
 }
 
 TEST_F(GenICamTest, OutOfRangeOrRequiredMissingFeatureKeepsTheOldSettings) {

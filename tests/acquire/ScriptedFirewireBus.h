@@ -15,6 +15,7 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,23 @@ struct BusScript {
     std::vector<FirewireGuid> present;  ///< as of the last enumeration; open() needs the GUID here
     std::map<FirewireGuid, int> dequeued;  ///< frames out of the ring now, per camera
     std::map<FirewireGuid, std::vector<const std::uint8_t*>> buffers;  ///< DMA buffer addresses while capturing
+
+    /// Features a camera does not have, by config name ("gain", "whiteBalance");
+    /// "<name> auto": it has the feature but no automatic mode for it.
+    /// setFeature()/setWhiteBalance() say NotFound for them, getFeature() too.
+    std::map<FirewireGuid, std::set<std::string>> absent;
+    /// A feature as a scripted camera holds it.
+    struct FeatureValue {
+        std::uint32_t value{0};
+        std::uint32_t redV{0};
+        bool automatic{false};
+    };
+    /// What each camera's features are set to now, by config name.
+    std::map<FirewireGuid, std::map<std::string, FeatureValue>> featureValues;
+    /// What a feature in automatic mode reads back as, per camera and name:
+    /// successive reads take successive values, the last one repeats (a
+    /// camera's automatic control settling). Unscripted: the value last set.
+    std::map<FirewireGuid, std::map<std::string, std::deque<std::uint32_t>>> autoValues;
 
     void failOn(const std::string& prefix, int times = -1) { failures[prefix] = times; }
     void add(FirewireGuid guid, std::vector<FrameEvent> events) {
@@ -110,9 +128,14 @@ public:
     }
 
     BusStatus setFeature(FirewireFeature feature, std::uint32_t value, bool automatic) override {
-        const std::string call = "feature " + formatGuid(guid_) + " " + std::string(toString(feature)) + " " +
-                                 std::to_string(value) + (automatic ? " auto" : " manual");
+        const std::string name(toString(feature));
+        const std::string call = "feature " + formatGuid(guid_) + " " + name + " " + std::to_string(value) +
+                                 (automatic ? " auto" : " manual");
         if (s_->record(call)) return BusStatus::error(BusStatus::Code::Rejected, "scripted: value out of range");
+        if (const BusStatus lacking = lacks(name, automatic); !lacking.isOk()) return lacking;
+        auto& held = s_->featureValues[guid_][name];
+        held.automatic = automatic;
+        if (!automatic) held.value = value;
         return BusStatus::ok();
     }
 
@@ -120,8 +143,19 @@ public:
         const std::string call = "whitebalance " + formatGuid(guid_) + " " + std::to_string(blueU) + "/" +
                                  std::to_string(redV) + (automatic ? " auto" : " manual");
         if (s_->record(call)) return BusStatus::error(BusStatus::Code::Rejected, "scripted: value out of range");
+        if (const BusStatus lacking = lacks("whiteBalance", automatic); !lacking.isOk()) return lacking;
+        auto& held = s_->featureValues[guid_]["whiteBalance"];
+        held.automatic = automatic;
+        if (!automatic) {
+            held.value = blueU;
+            held.redV = redV;
+        }
         return BusStatus::ok();
     }
+
+    FeatureState getFeature(FirewireFeature feature) override { return read(std::string(toString(feature))); }
+
+    FeatureState getWhiteBalance() override { return read("whiteBalance"); }
 
     BusStatus startCapture(std::uint32_t dmaBuffers) override {
         const std::string call = "start " + formatGuid(guid_) + " " + std::to_string(dmaBuffers);
@@ -188,6 +222,37 @@ public:
     }
 
 private:
+    /// NotFound when the script says this camera lacks @p name (or its automatic mode).
+    BusStatus lacks(const std::string& name, bool automatic) const {
+        const auto it = s_->absent.find(guid_);
+        if (it == s_->absent.end()) return BusStatus::ok();
+        if (it->second.count(name) > 0)
+            return BusStatus::error(BusStatus::Code::NotFound, "scripted: the camera has no " + name + " feature");
+        if (automatic && it->second.count(name + " auto") > 0)
+            return BusStatus::error(BusStatus::Code::NotFound, "scripted: the camera has no automatic mode for " + name);
+        return BusStatus::ok();
+    }
+
+    FeatureState read(const std::string& name) {
+        FeatureState state;
+        state.status = lacks(name, false);
+        if (!state.status.isOk()) return state;
+        const auto it = s_->absent.find(guid_);
+        state.autoAvailable = it == s_->absent.end() || it->second.count(name + " auto") == 0;
+        const auto& held = s_->featureValues[guid_][name];
+        state.automatic = held.automatic;
+        state.value = held.value;
+        state.redV = held.redV;
+        if (held.automatic) {
+            auto& script = s_->autoValues[guid_][name];
+            if (!script.empty()) {
+                state.value = script.front();
+                if (script.size() > 1) script.pop_front();
+            }
+        }
+        return state;
+    }
+
     void release() {
         if (!capturing_) return;
         capturing_ = false;
@@ -231,6 +296,12 @@ class ScriptedBus final : public FirewireBus {
 public:
     explicit ScriptedBus(std::shared_ptr<BusScript> script) : s_(std::move(script)) {}
     std::string name() const override { return "scripted"; }
+
+    std::string describe(FirewireGuid guid) override {
+        for (const FirewireGuid g : s_->present)
+            if (g == guid) return "Scripted IIDC camera";
+        return {};
+    }
 
     Enumeration enumerate() override {
         s_->calls.push_back("enumerate");

@@ -23,8 +23,10 @@
 
 #include <avatar/acquire/AcquireStereoImagePair.h>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -99,6 +101,13 @@ public:
     /// What the last successful applyConfig() changed on the cameras.
     CameraChange lastChange() const { return lastChange_; }
 
+    /// The IIDC feature set of both cameras as they report it
+    /// (AcquireStereoImagePair::readFeatures()); a feature the camera lacks,
+    /// which applyConfig() skipped with a warning, is present = false. The
+    /// camera ids are the GUIDs. Throws AcquisitionError before applyConfig()
+    /// or when a camera cannot be asked.
+    std::array<CameraFeatureReadback, 2> readFeatures() const override;
+
 protected:
     /// One pair from AvatarCameras::grabRawImagePair(): camera ids are the
     /// GUIDs, timestamps the capture times. Throws AcquisitionError.
@@ -117,5 +126,15 @@ private:
 /// The FireWire backend over the real bus (libdc1394).
 std::unique_ptr<AcquireSIPFirewire> makeFirewireAcquisition(FirewireOptions options = {},
                                                             std::uint32_t groupSize = 99999);
+
+/// What @p bus reaches now, for avatar-camtest (surveyBackend()): the device
+/// nodes `<deviceDirectory>/fw*` and whether this process may read and write
+/// each (libdc1394 needs both; a failed check names the node, its mode, owner
+/// and group and what to do), whether libdc1394 starts (the kernel driver),
+/// and every camera on the bus with its vendor and model, opened for a moment.
+/// Opens no camera for capture.
+BackendSurvey surveyFirewire(FirewireBus& bus, const std::filesystem::path& deviceDirectory = "/dev");
+/// The same over the real bus (libdc1394) and /dev.
+BackendSurvey surveyFirewire();
 
 }  // namespace avatar

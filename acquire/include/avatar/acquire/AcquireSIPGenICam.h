@@ -112,9 +112,27 @@ public:
     /// when that camera is not open or does not answer.
     GenICamReadback readBack(Side side) const;
 
+    /// The feature set of both cameras (AcquireStereoImagePair::readFeatures()):
+    /// exposure is ExposureTime / ExposureAuto, gain Gain / GainAuto,
+    /// whiteBalance BalanceRatio (Blue, Red) / BalanceWhiteAuto, brightness
+    /// BlackLevel / BlackLevelAuto, gamma Gamma (never automatic); shutter is
+    /// an IIDC feature and always reported missing. The camera ids are the
+    /// configured ones. Throws AcquisitionError when a camera is not open
+    /// (lost) or does not answer.
+    std::array<CameraFeatureReadback, 2> readFeatures() const override;
+
     /// "id (address, protocol)" of every camera Aravis finds now (one
     /// discovery pass, about a second for GigE Vision).
     static std::vector<std::string> listDevices();
+
+    /// What Aravis reaches now, for avatar-camtest (surveyBackend()): the
+    /// Aravis version and interfaces, one discovery pass (a check that fails
+    /// when it finds no camera), and every camera found with its vendor and
+    /// model, opened for a moment to see that it answers (a camera another
+    /// program controls, or one on another subnet, is listed as not
+    /// reachable with Aravis's reason). Do not call while this process has
+    /// the cameras open for acquisition.
+    static BackendSurvey survey();
 
 protected:
     AcquiredPair grab() override;

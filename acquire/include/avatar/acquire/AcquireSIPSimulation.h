@@ -40,6 +40,12 @@ public:
     /// simulation can never be mistaken for one made with the real cameras.
     void setCameraIds(std::string left, std::string right);
 
+    /// The simulated cameras have no adjustable feature: the scene's
+    /// <sensor> (exposure, noise, black level) sets their response, and the
+    /// configuration's <features> are not used. Every feature is reported
+    /// missing (present false, with that note), never an error. Thread-safe.
+    std::array<CameraFeatureReadback, 2> readFeatures() const override;
+
 protected:
     AcquiredPair grab() override;
     /// Adopts the image format of the configuration's camera (size, bit depth,

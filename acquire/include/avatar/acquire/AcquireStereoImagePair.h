@@ -15,11 +15,13 @@
 /// whether it is recovering or has failed. A backend never returns a pair whose
 /// two images do not belong together.
 
+#include <avatar/acquire/CameraReport.h>
 #include <avatar/common/Error.h>
 #include <avatar/common/StereoImagePair.h>
 #include <avatar/common/VisionTargets.h>
 #include <avatar/config/AvatarConfig.h>
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -86,6 +88,18 @@ public:
     void applyConfig(const AvatarConfig& config);
 
     virtual AcquisitionStatus status() const { return {}; }
+
+    /// The feature set as each camera reports it now, left then right
+    /// (CameraReport.h): per feature whether the camera has it, whether it can
+    /// and does adjust it itself, and its current value. A feature a camera
+    /// lacks is reported here by name, not an error: applyConfig() skips what
+    /// a camera lacks (on every backend) and this is how a caller finds out.
+    /// Throws AcquisitionError when a camera does not answer or is not open.
+    /// The default throws avatar::NotAvailable: the backend has no cameras
+    /// whose features could be read (files). Implemented by firewire,
+    /// genicam, replay (the recorded settings) and simulation (which has no
+    /// adjustable feature: all reported missing).
+    virtual std::array<CameraFeatureReadback, 2> readFeatures() const;
 
     std::uint32_t groupSize() const { return groupSize_; }
     /// The numbers the next acquired pair will get (live backends).

@@ -68,6 +68,15 @@ public:
     /// Finished after the last record. Thread-safe.
     AcquisitionStatus status() const override;
 
+    /// The feature set the recording was made with (AcquireStereoImagePair::
+    /// readFeatures()): the <features> of the configuration in force for the
+    /// last pair delivered (before the first, the initial configuration),
+    /// every feature present with its recorded value and mode, none
+    /// adjustable (autoAvailable false: a recording cannot change). The
+    /// camera ids are the recorded ones. Throws avatar::NotAvailable when the
+    /// session does not hold that configuration.
+    std::array<CameraFeatureReadback, 2> readFeatures() const override;
+
     const SessionLogReader& reader() const { return reader_; }
     /// The configuration the session starts with: that of its first intact
     /// record, validated. Throws avatar::NotAvailable when the session has no
