@@ -28,6 +28,7 @@ packages=(
   clang libclang-rt-14-dev
   tmux
   opencv-doc        # real stereo checkerboard photographs for the calibration tests
+  xvfb x11-apps libxtst6   # avatar-filtergui's window tests: an X server, xwd screenshots, XTEST input
 )
 
 missing=()
