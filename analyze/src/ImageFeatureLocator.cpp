@@ -145,16 +145,6 @@ void labelRuns(const cv::Mat& mask, RunComponents& out) {
     }
 }
 
-/// True when any byte of row[x0, x1) is non-zero.
-bool anyNonZero(const std::uint8_t* row, int x0, int x1) {
-    int x = x0;
-    for (; x + 8 <= x1; x += 8)
-        if (load8(row + x) != 0) return true;
-    for (; x < x1; ++x)
-        if (row[x] != 0) return true;
-    return false;
-}
-
 /// Per-feature sums gathered in the single pass over the label image. All
 /// coordinates are relative to the search window until the feature is built.
 /// The names follow Table 3-1 / Appendix C.
@@ -283,49 +273,89 @@ Feature makeFeature(const Accumulator& a, const cv::Rect& window) {
 
 }  // namespace
 
+namespace {
+
+/// Whether the run @p r of @p mask holds a pixel that survives the erosion by
+/// a square of 2 @p radius + 1, pixels beyond the image edge counting as "on"
+/// (cv::erode with its default border). Only pixels of the mask can survive,
+/// and in the run's row the run is all there is, so the erosion is decided
+/// on the run alone: the columns of the run that are "on" in every row of the
+/// square's height (@p column, the caller's scratch), then a stretch of them
+/// wide enough for the square (narrower where it meets the image edge).
+bool runSurvivesErosion(const cv::Mat& mask, const Run& r, int radius, std::vector<std::uint8_t>& column) {
+    const int width = r.x1 - r.x0;
+    const bool atLeft = r.x0 == 0, atRight = r.x1 == mask.cols;
+    if (width < 2 * radius + 1 && !atLeft && !atRight) return false;  // too narrow whatever the rows say
+    std::uint8_t* v = column.data();
+    std::memset(v, 1, static_cast<std::size_t>(width));
+    for (int y = std::max(0, r.y - radius); y <= std::min(mask.rows - 1, r.y + radius); ++y) {
+        const std::uint8_t* row = mask.ptr<std::uint8_t>(y) + r.x0;
+        for (int i = 0; i < width; ++i) v[i] &= static_cast<std::uint8_t>(row[i] != 0);
+    }
+    // Stretches [s, e) of columns "on" in every row: a surviving pixel x needs
+    // [max(0, x - radius), min(cols - 1, x + radius)] inside one.
+    int i = 0;
+    while (i < width) {
+        while (i < width && v[i] == 0) ++i;
+        const int s = r.x0 + i;
+        while (i < width && v[i] != 0) ++i;
+        const int e = r.x0 + i;
+        if (e <= s) break;
+        const int lo = s == 0 ? s : s + radius;
+        const int hi = e == mask.cols ? e - 1 : e - 1 - radius;
+        if (lo <= hi) return true;
+    }
+    return false;
+}
+
+}  // namespace
+
 cv::Mat erodeRestore(const cv::Mat& mask, int kernelSize) {
+    cv::Mat out;
+    erodeRestore(mask, kernelSize, out);
+    return out;
+}
+
+void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out) {
     requireMask(mask, "erodeRestore");
     if (kernelSize < 1 || kernelSize % 2 == 0) {
         throw InvalidArgument("erodeRestore: the erode kernel size must be odd and positive, got " +
                               std::to_string(kernelSize));
     }
-    if (mask.empty()) return cv::Mat(mask.size(), CV_8UC1);
+    if (out.data == mask.data && !mask.empty())
+        throw InvalidArgument("erodeRestore: the output must not share the mask's buffer");
+    if (out.type() != CV_8UC1 || out.size() != mask.size() || !out.isContinuous()) out.create(mask.size(), CV_8UC1);
+    if (mask.empty()) return;
 
-    // Pixels beyond the image edge count as "on" (OpenCV's default border for
-    // erosion), so a feature cut by the edge is eroded only from its inside.
-    cv::Mat eroded;
-    cv::erode(mask, eroded, cv::getStructuringElement(cv::MORPH_RECT, {kernelSize, kernelSize}),
-              cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::morphologyDefaultBorderValue());
-
-    // Reconstruction: label the original, mark every component that still
-    // has an eroded pixel (eroded pixels are a subset of the original's, so
-    // only the runs need looking at), then write exactly its runs.
+    // Reconstruction: label the mask, keep every component that has a pixel
+    // surviving the erosion (decided run by run, without an eroded image),
+    // then write exactly the kept components' runs.
     RunComponents c;
     labelRuns(mask, c);
     std::vector<std::uint8_t> keep(static_cast<std::size_t>(c.count), 0);
+    std::vector<std::uint8_t> column(static_cast<std::size_t>(mask.cols));
+    const int radius = kernelSize / 2;
     int survivors = 0;
     for (std::size_t i = 0; i < c.runs.size(); ++i) {
         std::uint8_t& k = keep[static_cast<std::size_t>(c.component[i])];
         if (k != 0) continue;
-        const Run& r = c.runs[i];
-        if (anyNonZero(eroded.ptr<std::uint8_t>(r.y), r.x0, r.x1)) {
+        if (runSurvivesErosion(mask, c.runs[i], radius, column)) {
             k = 255;
             ++survivors;
         }
     }
 
-    cv::Mat restored = cv::Mat::zeros(mask.size(), CV_8UC1);
+    out.setTo(0);
     for (std::size_t i = 0; i < c.runs.size(); ++i) {
         const Run& r = c.runs[i];
         if (keep[static_cast<std::size_t>(c.component[i])] != 0)
-            std::memset(restored.ptr<std::uint8_t>(r.y) + r.x0, 255, static_cast<std::size_t>(r.x1 - r.x0));
+            std::memset(out.ptr<std::uint8_t>(r.y) + r.x0, 255, static_cast<std::size_t>(r.x1 - r.x0));
     }
     log4cpp::Category& log = logger();
     if (log.isDebugEnabled()) {
         log.debugStream() << "erodeRestore: kernel " << kernelSize << ", " << survivors << " of "
                           << c.count << " components kept";
     }
-    return restored;
 }
 
 std::vector<Feature> locateFeatures(const cv::Mat& mask, const cv::Mat& intensity,
