@@ -76,27 +76,59 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     frame.result.iteration = iteration;
     frame.result.acquisition = pair.id();
 
-    for (auto& stage : stages_) {
-        const auto t0 = Clock::now();
-        stage->prepare(frame);
-        if (stage->hasImageWork()) {
+    // Consecutive stages whose sides are independent run as one batch: every
+    // prepare(), then each side's image work of all of them in one task (one
+    // fork and join for the batch, not one per stage), then every
+    // processPair(). A stage's time is its preparation, its left image's work
+    // (the right's too when serial), its pair work, and for the batch's last
+    // stage with image work the wait for the right image.
+    const auto ms = [](Clock::time_point from) {
+        return std::chrono::duration<double, std::milli>(Clock::now() - from).count();
+    };
+    for (std::size_t i = 0; i < stages_.size();) {
+        std::size_t end = i + 1;
+        if (stages_[i]->independentSides())
+            while (end < stages_.size() && stages_[end]->independentSides()) ++end;
+        std::vector<double> spent(end - i, 0.0);
+        std::size_t lastImageWork = end;
+        for (std::size_t k = i; k < end; ++k) {
+            const auto t0 = Clock::now();
+            stages_[k]->prepare(frame);
+            spent[k - i] += ms(t0);
+            if (stages_[k]->hasImageWork()) lastImageWork = k;
+        }
+        if (lastImageWork != end) {
+            const auto sideWork = [&](Side side, std::vector<double>* times) {
+                for (std::size_t k = i; k < end; ++k) {
+                    if (!stages_[k]->hasImageWork()) continue;
+                    const auto t0 = Clock::now();
+                    stages_[k]->processImage(frame, side);
+                    if (times != nullptr) (*times)[k - i] += ms(t0);
+                }
+            };
             if (parallel_) {
-                auto right = worker_->submit([&] { stage->processImage(frame, Side::Right); });
+                auto right = worker_->submit([&] { sideWork(Side::Right, nullptr); });
                 try {
-                    stage->processImage(frame, Side::Left);
+                    sideWork(Side::Left, &spent);
                 } catch (...) {
                     right.wait();  // never leave the worker writing into a dead frame
                     throw;
                 }
+                const auto waited = Clock::now();
                 right.get();
+                spent[lastImageWork - i] += ms(waited);
             } else {
-                stage->processImage(frame, Side::Left);
-                stage->processImage(frame, Side::Right);
+                sideWork(Side::Left, &spent);
+                sideWork(Side::Right, &spent);
             }
         }
-        stage->processPair(frame);
-        frame.result.timings.push_back(
-            {std::string(stage->name()), std::chrono::duration<double, std::milli>(Clock::now() - t0).count()});
+        for (std::size_t k = i; k < end; ++k) {
+            const auto t0 = Clock::now();
+            stages_[k]->processPair(frame);
+            spent[k - i] += ms(t0);
+            frame.result.timings.push_back({std::string(stages_[k]->name()), spent[k - i]});
+        }
+        i = end;
     }
     frame.result.timings.push_back(
         {"total", std::chrono::duration<double, std::milli>(Clock::now() - start).count()});

@@ -26,10 +26,19 @@ AVATAR_KERNEL_CLONES void loadRow(const S* __restrict in, float* __restrict out,
     for (int i = 0; i < n; ++i) out[i] = static_cast<float>(static_cast<std::int32_t>(in[i]));
 }
 
-AVATAR_KERNEL_CLONES void loadRowSwapped(const std::uint16_t* __restrict in, float* __restrict out, int n) {
+AVATAR_KERNEL_CLONES void swapRow(const std::uint16_t* __restrict in, float* __restrict out, int n) {
     for (int i = 0; i < n; ++i) {
         const std::uint32_t v = in[i];
         out[i] = static_cast<float>(static_cast<std::int32_t>(((v >> 8) | (v << 8)) & 0xFFFFu));
+    }
+}
+
+/// LightingCorrector::apply's formula on one row of mosaic sites, in place:
+/// min(sample * factor, full scale) rounded half up, in single precision.
+AVATAR_KERNEL_CLONES void lightRow(float* __restrict row, const float* __restrict factor, int n, float full) {
+    for (int i = 0; i < n; ++i) {
+        const float v = std::min(row[i] * factor[i], full);
+        row[i] = static_cast<float>(static_cast<std::int32_t>(v + 0.5f));
     }
 }
 
@@ -59,16 +68,6 @@ AVATAR_KERNEL_CLONES void demosaicRow(const float* __restrict m0, const float* _
         cr[x] = s * a + h2 * b;
         green[x] = x4 * a + s * b;
         other[x] = d4 * a + v2 * b;
-    }
-}
-
-/// LightingCorrector::apply on one plane: min(sample * factor, full scale),
-/// rounded half up, in single precision as there.
-AVATAR_KERNEL_CLONES void lightRow(const float* __restrict in, const float* __restrict factor, float* __restrict out,
-                                   int n, float full) {
-    for (int i = 0; i < n; ++i) {
-        const float v = std::min(in[i] * factor[i], full);
-        out[i] = static_cast<float>(static_cast<std::int32_t>(v + 0.5f));
     }
 }
 
@@ -134,13 +133,12 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     out.masks.resize(types);
     for (cv::Mat& mask : out.masks) prepareImage(mask, mosaic.size(), CV_8UC1);
 
-    // Rows: three of the mosaic (a ring), the demosaiced and the corrected
-    // planes, the visibility's column sums; the per-column role of each row parity.
-    std::vector<float> rows(13 * n, 0.0f);
+    // Rows: three of the (corrected) mosaic (a ring), the demosaiced planes, the
+    // visibility's column sums; the per-column role of each row parity.
+    std::vector<float> rows(9 * n, 0.0f);
     float* mosaicRow[3] = {rows.data(), rows.data() + n, rows.data() + 2 * n};
     float* demosaiced[3] = {rows.data() + 3 * n, rows.data() + 4 * n, rows.data() + 5 * n};
-    float* corrected[3] = {rows.data() + 6 * n, rows.data() + 7 * n, rows.data() + 8 * n};
-    float* sums[3] = {rows.data() + 9 * n, rows.data() + 10 * n, rows.data() + 11 * n};
+    float* sums[3] = {rows.data() + 6 * n, rows.data() + 7 * n, rows.data() + 8 * n};
     std::vector<float> ownColumn(2 * n), greenColumn(2 * n);
     int ownColour[2], otherColour[2];
     for (int parity = 0; parity < 2; ++parity) {
@@ -171,11 +169,12 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
                 ++loaded;
                 float* dst = mosaicRow[loaded % 3];
                 if constexpr (sizeof(S) == 2) {
-                    if (in.endianSwap) loadRowSwapped(mosaic.ptr<std::uint16_t>(loaded), dst, w);
+                    if (in.endianSwap) swapRow(mosaic.ptr<std::uint16_t>(loaded), dst, w);
                     else loadRow(mosaic.ptr<S>(loaded), dst, w);
                 } else {
                     loadRow(mosaic.ptr<S>(loaded), dst, w);
                 }
+                if (in.factors != nullptr) lightRow(dst, in.factors->ptr<float>(loaded), w, full);
             }
             const int parity = source & 1;
             float* own = demosaiced[ownColour[parity]];
@@ -190,10 +189,6 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
             lastSource = source;
         }
         const float* const* planes = demosaiced;
-        if (in.factors != nullptr) {
-            for (int c = 0; c < 3; ++c) lightRow(demosaiced[c], (*in.factors)[c].ptr<float>(y), corrected[c], w, full);
-            planes = corrected;
-        }
         const float* b = planes[0];
         const float* g = planes[1];
         const float* r = planes[2];
@@ -232,6 +227,20 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
 
 }  // namespace
 
+cv::Mat mosaicFactors(const cv::Mat& factorsBgr, BayerPattern pattern) {
+    if (factorsBgr.type() != CV_32FC3)
+        throw InvalidArgument("front end: the lighting factors must be CV_32FC3, got " +
+                              cv::typeToString(factorsBgr.type()));
+    cv::Mat out(factorsBgr.size(), CV_32FC1);
+    for (int y = 0; y < out.rows; ++y) {
+        const cv::Vec3f* in = factorsBgr.ptr<cv::Vec3f>(y);
+        float* o = out.ptr<float>(y);
+        const int even = siteColour(pattern, 0, y), odd = siteColour(pattern, 1, y);
+        for (int x = 0; x < out.cols; ++x) o[x] = in[x][(x & 1) != 0 ? odd : even];
+    }
+    return out;
+}
+
 bool frontEndHandles(const cv::Mat& mosaic) {
     return mosaic.channels() == 1 && (mosaic.depth() == CV_8U || mosaic.depth() == CV_16U) && mosaic.cols >= 4 &&
            mosaic.rows >= 4;
@@ -246,10 +255,8 @@ void runFrontEnd(const FrontEndInput& in, FrontEndResult& out) {
     if (in.bitDepth < 1 || in.bitDepth > maxBits)
         throw InvalidArgument("front end: bit depth " + std::to_string(in.bitDepth) + " does not fit " +
                               std::to_string(maxBits) + "-bit samples");
-    if (in.factors != nullptr)
-        for (const cv::Mat& f : *in.factors)
-            if (f.type() != CV_32FC1 || f.size() != in.mosaic.size())
-                throw InvalidArgument("front end: the lighting factors must be CV_32FC1 planes of the image's size");
+    if (in.factors != nullptr && (in.factors->type() != CV_32FC1 || in.factors->size() != in.mosaic.size()))
+        throw InvalidArgument("front end: the lighting factors must be a CV_32FC1 image of the mosaic's size");
     if (in.mosaic.depth() == CV_8U)
         run<std::uint8_t>(in, out);
     else

@@ -1,10 +1,17 @@
 #pragma once
 // Internal to avatar::analyze: the fused front end. The per-pixel stages of
-// the chain (demosaic, lighting, color_filter and visibility's measures) done
+// the chain (lighting, demosaic, color_filter and visibility's measures) done
 // in one pass over the rows of a raw mosaic, so that the image is read once
-// and every intermediate row stays in cache (docs/benchmarks.md). The result
-// is bit for bit what the stages give one after the other: the bilinear
-// demosaic of cv::cvtColor, LightingCorrector::apply, colorFilterMasks and
+// and every intermediate row stays in cache (docs/benchmarks.md).
+//
+// The lighting correction is applied to the mosaic, each site by the factor
+// of its own colour (LightingCorrector::apply's formula, one multiplication
+// per site instead of three per pixel, a third of the factors to read), and
+// the corrected mosaic is demosaiced: the correction of the sensor's samples
+// before they are interpolated, which is the physically exact order (the
+// interpolated colours of a pixel come from its neighbours, each under its
+// own falloff). Otherwise the result is bit for bit what the stages give one
+// after the other: the bilinear demosaic of cv::cvtColor, colorFilterMasks and
 // measureVisibility (tests/analyze/FrontEndTest.cpp checks each against them).
 
 #include "ColorFilterKernel.h"
@@ -28,9 +35,9 @@ struct FrontEndInput {
     BayerPattern pattern{BayerPattern::BG};
     int bitDepth{16};         ///< significant bits (full scale 2^bitDepth - 1)
     bool endianSwap{false};   ///< swap the bytes of 16-bit samples first
-    /// The lighting factors as three planes B, G, R (CV_32FC1 of the image's
-    /// size, LightingCorrector::factors() split); null: no correction.
-    const std::array<cv::Mat, 3>* factors{nullptr};
+    /// The lighting factor of every mosaic site, its colour's (CV_32FC1 of the
+    /// image's size, mosaicFactors()); null: no correction.
+    const cv::Mat* factors{nullptr};
     /// The colour tests, compiled for this size and depth; null: no filter.
     const std::vector<ColorTest>* tests{nullptr};
     bool visibility{false};   ///< measure the visibility statistics
@@ -44,6 +51,10 @@ struct FrontEndResult {
     std::vector<cv::Mat> masks;     ///< one per test, CV_8UC1 0/255
     std::optional<VisibilityMeasures> visibility;
 };
+
+/// The factor of each site of a @p pattern mosaic: the channel of its colour
+/// of LightingCorrector::factors() (CV_32FC3, BGR).
+cv::Mat mosaicFactors(const cv::Mat& factorsBgr, BayerPattern pattern);
 
 /// Whether the fused pass takes this mosaic: 8 or 16-bit, one channel, at
 /// least 4x4 pixels (smaller images go through the stages one by one).

@@ -2,12 +2,13 @@
 // Internal to avatar::analyze: the per-pixel kernels are plain loops that GCC
 // vectorises. It widens and narrows samples in vector registers only from
 // SSE4.1 on, and uses the wider registers only when told, so each kernel is
-// compiled for AVX2, AVX and SSE4.1 as well, and the best clone for the CPU
-// is picked when the program loads (target_clones, an ifunc); the default
+// compiled for AVX-512F, AVX2, AVX and SSE4.1 as well (by feature, not CPU
+// model, so any AVX-512 machine takes the first), and the best clone for the
+// CPU is picked when the program loads (target_clones, an ifunc); the default
 // clone is the portable loop for any x86-64.
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-#define AVATAR_KERNEL_CLONES __attribute__((target_clones("arch=skylake-avx512", "avx2", "avx", "sse4.1", "default")))
+#define AVATAR_KERNEL_CLONES __attribute__((target_clones("avx512f", "avx2", "avx", "sse4.1", "default")))
 #else
 #define AVATAR_KERNEL_CLONES
 #endif

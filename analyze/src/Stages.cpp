@@ -53,10 +53,12 @@ class VisibilityStage;
 /// chain lets it (fuseFrontEnd()), it is also the fused front end: the
 /// lighting, color_filter and visibility stages that follow hand their
 /// per-pixel work to it, and a raw mosaic goes through all of them in one pass
-/// (FrontEnd.h), bit for bit as one stage after the other. Its time is then
-/// theirs too; theirs is what is left (a verdict, a preparation).
+/// (FrontEnd.h): the lighting correction applied to the mosaic's sites before
+/// the demosaic, the rest bit for bit as one stage after the other. Its time
+/// is then theirs too; theirs is what is left (a verdict, a preparation).
 class DemosaicStage final : public ProcessStereoImagePair {
 public:
+    bool independentSides() const override { return true; }
     explicit DemosaicStage(const StageContext& c)
         : swap_(c.config.camera.endianSwap),
           method_(c.config.analysis.demosaic == DemosaicAlgorithm::EdgeAware ? DemosaicMethod::EdgeAware
@@ -88,8 +90,9 @@ private:
     ColorFilterStage* filter_{nullptr};
     VisibilityStage* visibility_{nullptr};
     // Built in prepare() for the frame's geometry, read by both sides.
-    std::array<cv::Mat, 3> factors_;
-    cv::Mat factorsOf_;  ///< the corrector's factor image factors_ were split from
+    cv::Mat factors_;    ///< the lighting factor of each mosaic site
+    cv::Mat factorsOf_;  ///< the corrector's factor image factors_ were taken from
+    BayerPattern factorsPattern_{BayerPattern::BG};
     std::vector<detail::ColorTest> tests_;
     cv::Size testsSize_;
     int testsDepth_{-1}, testsBits_{-1};
@@ -101,6 +104,7 @@ private:
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
 class LightingStage final : public ProcessStereoImagePair {
 public:
+    bool independentSides() const override { return true; }
     explicit LightingStage(const StageContext& c) : corrector_(c.config.lighting, c.configDir) {}
     std::string_view name() const override { return "lighting"; }
     bool hasImageWork() const override { return corrector_.enabled() && !covered_; }
@@ -127,6 +131,7 @@ private:
 /// RGB-ratio or HSV filter, all target types in one pass (thesis 3.3.2).
 class ColorFilterStage final : public ProcessStereoImagePair {
 public:
+    bool independentSides() const override { return true; }
     explicit ColorFilterStage(const StageContext& c) : types_(c.config.targets.targets) {}
     std::string_view name() const override { return "color_filter"; }
     bool hasImageWork() const override { return !covered_; }
@@ -147,23 +152,31 @@ private:
 /// Erode, then feature-AND restore, for the types that ask for it (thesis 3.3.2).
 class ErodeRestoreStage final : public ProcessStereoImagePair {
 public:
+    bool independentSides() const override { return true; }
     explicit ErodeRestoreStage(const StageContext& c) : types_(c.config.targets.targets) {}
     std::string_view name() const override { return "erode_restore"; }
     std::vector<std::string_view> needs() const override { return {"color_filter"}; }
     bool hasImageWork() const override { return true; }
     void processImage(AnalysisFrame& frame, Side side) override {
         auto& masks = frame.at(side).masks;
+        detail::BufferPool& pool = pools_[side == Side::Left ? 0 : 1];
         for (std::size_t t = 0; t < types_.size() && t < masks.size(); ++t)
-            if (types_[t].erodeRestore) masks[t] = erodeRestore(masks[t], types_[t].erodeKernelSize);
+            if (types_[t].erodeRestore) {
+                cv::Mat restored = pool.get(masks[t].size(), CV_8UC1);
+                erodeRestore(masks[t], types_[t].erodeKernelSize, restored);
+                masks[t] = std::move(restored);
+            }
     }
 
 private:
     std::vector<TargetType> types_;
+    std::array<detail::BufferPool, 2> pools_{detail::BufferPool(16), detail::BufferPool(16)};  ///< per side
 };
 
 /// 8-connected features with the geometric filter (thesis 3.3.3).
 class LocateFeaturesStage final : public ProcessStereoImagePair {
 public:
+    bool independentSides() const override { return true; }
     explicit LocateFeaturesStage(const StageContext& c)
         : types_(c.config.targets.targets),
           weighted_(c.config.analysis.centroid == CentroidMode::IntensityWeighted) {}
@@ -281,9 +294,10 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
     if (lighting_ != nullptr && lighting_->corrector().enabled()) {
         LightingCorrector& corrector = lighting_->corrector();
         corrector.prepare(size);  // once per size
-        if (corrector.factors().data != factorsOf_.data) {
-            cv::split(corrector.factors(), factors_.data());
+        if (corrector.factors().data != factorsOf_.data || frame.layout.bayerPattern != factorsPattern_) {
+            factors_ = detail::mosaicFactors(corrector.factors(), frame.layout.bayerPattern);
             factorsOf_ = corrector.factors();
+            factorsPattern_ = frame.layout.bayerPattern;
         }
     }
     const int depth = frame.original.image(Side::Left).depth();

@@ -1,10 +1,13 @@
 // The fused front end (analyze/src/FrontEnd.h) against the stages it stands
-// for, run one after the other as the chain ran them before it: cv::cvtColor's
-// bilinear demosaic (demosaic()), LightingCorrector::apply, colorFilterMasks
-// and measureVisibility. Every output must be identical, bit for bit: the
-// image, every mask and every visibility measure, over Bayer patterns, sample
-// depths, bit depths, odd sizes, byte order, lighting and the kinds of
-// colour filter (ratio in float and in double, HSV, brightness bands, windows).
+// for, run one after the other: the lighting correction of every mosaic site
+// by its colour's factor (LightingCorrector::apply's formula), cv::cvtColor's
+// bilinear demosaic (demosaic()), colorFilterMasks and measureVisibility.
+// Every output must be identical, bit for bit: the image, every mask and
+// every visibility measure, over Bayer patterns, sample depths, bit depths,
+// odd sizes, byte order, lighting and the kinds of colour filter (ratio in
+// float and in double, HSV, brightness bands, windows). What the order of
+// correction and demosaic changes on whole scenes is measured in
+// docs/accuracy.md.
 
 #include "FrontEnd.h"
 
@@ -129,15 +132,28 @@ void checkCase(const Case& c, std::uint64_t seed) {
     if (c.swap) swapEndian16(stored);
     const std::vector<TargetType> types = filterTypes(c.size);
 
-    // The stages one by one.
-    cv::Mat bgr = demosaic(mosaic, c.pattern);
+    // The stages one by one, the correction on the mosaic's sites.
     LightingCorrector corrector(lightingConfig(c.size));
-    std::array<cv::Mat, 3> factors;
+    cv::Mat factors;
+    cv::Mat corrected = mosaic.clone();
     if (c.lighting) {
         corrector.prepare(c.size);
-        corrector.apply(bgr, c.bitDepth);
-        cv::split(corrector.factors(), factors.data());
+        factors = detail::mosaicFactors(corrector.factors(), c.pattern);
+        const float full = static_cast<float>((1 << c.bitDepth) - 1);
+        for (int y = 0; y < c.size.height; ++y)
+            for (int x = 0; x < c.size.width; ++x) {
+                const float f = factors.at<float>(y, x);
+                const auto correct = [&](auto s) {
+                    return static_cast<std::int32_t>(std::min(static_cast<float>(s) * f, full) + 0.5f);
+                };
+                if (c.depth == CV_8U)
+                    corrected.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(correct(mosaic.at<std::uint8_t>(y, x)));
+                else
+                    corrected.at<std::uint16_t>(y, x) =
+                        static_cast<std::uint16_t>(correct(mosaic.at<std::uint16_t>(y, x)));
+            }
     }
+    cv::Mat bgr = demosaic(corrected, c.pattern);
     std::vector<cv::Mat> masks;
     colorFilterMasks(bgr, c.bitDepth, types, masks);
     const VisibilityMeasures visibility = measureVisibility(bgr, c.bitDepth);
@@ -207,6 +223,24 @@ TEST(FrontEnd, WithoutFilterOrVisibility) {
     expectIdentical(out.bgr, demosaic(mosaic, BayerPattern::BG), "image");
     EXPECT_TRUE(out.masks.empty());
     EXPECT_FALSE(out.visibility.has_value());
+}
+
+// Each site takes the factor of its own colour (BayerPattern names the first
+// row's two sites: BG = blue, green / green, red).
+TEST(FrontEnd, MosaicFactorsAreEachSitesColours) {
+    cv::Mat bgr(2, 2, CV_32FC3);
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 2; ++x) bgr.at<cv::Vec3f>(y, x) = {10.0f + x + 2 * y, 20.0f + x + 2 * y, 30.0f + x + 2 * y};
+    const cv::Mat bg = detail::mosaicFactors(bgr, BayerPattern::BG);
+    EXPECT_EQ(bg.at<float>(0, 0), 10.0f);  // blue
+    EXPECT_EQ(bg.at<float>(0, 1), 21.0f);  // green
+    EXPECT_EQ(bg.at<float>(1, 0), 22.0f);  // green
+    EXPECT_EQ(bg.at<float>(1, 1), 33.0f);  // red
+    const cv::Mat gr = detail::mosaicFactors(bgr, BayerPattern::GR);
+    EXPECT_EQ(gr.at<float>(0, 0), 20.0f);  // green
+    EXPECT_EQ(gr.at<float>(0, 1), 31.0f);  // red
+    EXPECT_EQ(gr.at<float>(1, 0), 12.0f);  // blue
+    EXPECT_EQ(gr.at<float>(1, 1), 23.0f);  // green
 }
 
 TEST(FrontEnd, RefusesWhatItDoesNotHandle) {

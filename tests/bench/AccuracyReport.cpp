@@ -6,7 +6,7 @@
 // truth and prints markdown tables.
 //
 //   accuracy_report [--scenes N] [--set lab|wide|dark|seabed|precision|bias|all]
-//                   [--seed S] [--repeats R] [--verbose]
+//                   [--seed S] [--repeats R] [--verbose] [--unfused]
 
 #include "../analyze/AccuracyHarness.h"
 
@@ -32,7 +32,33 @@ struct Options {
     std::string set{"all"};
     std::uint64_t seed{1};
     int repeats{30};
+    /// --unfused: the stages one by one, the lighting correction after the
+    /// demosaic (the order before the fused front end), for comparison.
+    bool unfused{false};
 };
+
+/// The built-in demosaic behind a stage type the chain does not fuse.
+class UnfusedDemosaic final : public ProcessStereoImagePair {
+public:
+    explicit UnfusedDemosaic(std::unique_ptr<ProcessStereoImagePair> inner) : inner_(std::move(inner)) {}
+    std::string_view name() const override { return inner_->name(); }
+    bool hasImageWork() const override { return inner_->hasImageWork(); }
+    void prepare(AnalysisFrame& f) override { inner_->prepare(f); }
+    void processImage(AnalysisFrame& f, Side s) override { inner_->processImage(f, s); }
+    void processPair(AnalysisFrame& f) override { inner_->processPair(f); }
+
+private:
+    std::unique_ptr<ProcessStereoImagePair> inner_;
+};
+
+StageRegistry registryFor(const Options& options) {
+    StageRegistry r = StageRegistry::builtin();
+    if (options.unfused)
+        r.add("demosaic", [](const StageContext& c) {
+            return std::make_unique<UnfusedDemosaic>(StageRegistry::builtin().create("demosaic", c));
+        });
+    return r;
+}
 
 /// Every truth target and every reported target of one analysed pair (for --verbose).
 void dump(const render::GroundTruth& truth, const VisionTargets& result) {
@@ -61,7 +87,7 @@ bool gVerbose = false;
 void usage() {
     std::fprintf(stderr,
                  "usage: accuracy_report [--scenes N] [--set lab|wide|dark|seabed|precision|bias|all] "
-                 "[--seed S] [--repeats R] [--verbose]\n");
+                 "[--seed S] [--repeats R] [--verbose] [--unfused]\n");
 }
 
 std::uint64_t renderSeed(std::uint64_t seed, std::size_t index) { return seed * 1000003ULL + index + 1; }
@@ -150,7 +176,9 @@ void runSet(const SetDefinition& set, const Options& options, const StereoSystem
     const auto start = std::chrono::steady_clock::now();
     const SetConfigs configs = makeConfigs(set);
     const auto scenes = makeScenes(set, options.scenes, options.seed, stereo, sensor);
-    AnalyzeStereoImagePair centroid(configs.centroid), sphere(configs.sphere), uncorrected(configs.uncorrected);
+    const StageRegistry registry = registryFor(options);
+    AnalyzeStereoImagePair centroid(configs.centroid, {}, registry), sphere(configs.sphere, {}, registry),
+        uncorrected(configs.uncorrected, {}, registry);
     Tally tc, ts, tu;
     double renderSeconds = 0.0;
     for (std::size_t k = 0; k < scenes.size(); ++k) {
@@ -335,6 +363,7 @@ int main(int argc, char** argv) {
         else if (a == "--seed") options.seed = std::strtoull(value().c_str(), nullptr, 10);
         else if (a == "--repeats") options.repeats = std::atoi(value().c_str());
         else if (a == "--verbose") gVerbose = true;
+        else if (a == "--unfused") options.unfused = true;
         else if (a == "--help" || a == "-h") {
             usage();
             return 0;

@@ -1,8 +1,9 @@
 // The per-pixel stages of one 1280x960 16-bit Bayer image, one thread:
 //
-//   FrontEnd/Fused     the fused front end (analyze/src/FrontEnd.h): demosaic,
-//                      lighting, the colour filter of two target types and the
-//                      visibility measures in one pass over the rows
+//   FrontEnd/Fused     the fused front end (analyze/src/FrontEnd.h): lighting
+//                      (on the mosaic), demosaic, the colour filter of two
+//                      target types and the visibility measures in one pass
+//                      over the rows
 //   FrontEnd/Stages    the same stages one after the other, as the chain ran
 //                      them before the fused pass (demosaic(), then
 //                      LightingCorrector::apply, colorFilterMasks and
@@ -38,7 +39,7 @@ struct Input {
     cv::Mat mosaic;
     AvatarConfig config;
     LightingCorrector lighting;
-    std::array<cv::Mat, 3> factors;
+    cv::Mat factors;  ///< per mosaic site
     std::vector<detail::ColorTest> tests;
 
     static AvatarConfig sample() {
@@ -64,7 +65,7 @@ struct Input {
                 mosaic.at<std::uint16_t>(y, x) = cv::saturate_cast<std::uint16_t>(v + noise(rng));
             }
         lighting.prepare(size);
-        cv::split(lighting.factors(), factors.data());
+        factors = detail::mosaicFactors(lighting.factors(), config.camera.bayerPattern);
         for (const TargetType& t : config.targets.targets) tests.emplace_back(t, size, CV_16U, 16);
     }
 };
@@ -101,10 +102,16 @@ void fused(const Input& in, detail::FrontEndResult& out) {
 void Fused(benchmark::State& state) {
     const Input& in = input();
     detail::FrontEndResult out;
-    Staged check;
-    stages(in, check);
     fused(in, out);
-    if (cv::norm(out.bgr, check.bgr, cv::NORM_INF) != 0.0) state.SkipWithError("the fused image differs");
+    // The pass corrects the mosaic's sites, then demosaics: its reference.
+    cv::Mat corrected(in.mosaic.size(), CV_16UC1);
+    for (int y = 0; y < corrected.rows; ++y)
+        for (int x = 0; x < corrected.cols; ++x)
+            corrected.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(static_cast<std::int32_t>(
+                std::min(static_cast<float>(in.mosaic.at<std::uint16_t>(y, x)) * in.factors.at<float>(y, x), 65535.0f) +
+                0.5f));
+    if (cv::norm(out.bgr, demosaic(corrected, in.config.camera.bayerPattern), cv::NORM_INF) != 0.0)
+        state.SkipWithError("the fused image differs from its reference");
     for (auto _ : state) {
         fused(in, out);
         benchmark::DoNotOptimize(out.bgr.data);

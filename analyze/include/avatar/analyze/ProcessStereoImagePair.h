@@ -62,6 +62,13 @@ public:
     /// orchestrator refuses a chain that breaks this.
     virtual std::vector<std::string_view> needs() const { return {}; }
     virtual bool hasImageWork() const { return false; }
+    /// True when the orchestrator may batch this stage with its neighbours
+    /// that say the same: their prepare() all first, then each image's work
+    /// of all of them in a row on one thread, then their processPair(). A
+    /// stage may say so when its prepare() reads only the acquired pair and
+    /// its layout, and its processPair() writes nothing that another stage's
+    /// processImage() reads. The default, false, keeps the stage on its own.
+    virtual bool independentSides() const { return false; }
     virtual void prepare(AnalysisFrame& /*frame*/) {}
     virtual void processImage(AnalysisFrame& /*frame*/, Side /*side*/) {}
     virtual void processPair(AnalysisFrame& /*frame*/) {}
