@@ -5,6 +5,7 @@
 // Bouguet text import, and the Appendix A diagnostics.
 #include "SampleConfigs.h"
 #include "TempDir.h"
+#include "ToolRun.h"
 
 #include <avatar/acquire/SessionLog.h>
 #include <avatar/common/CameraModel.h>
@@ -31,28 +32,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct ToolRun {
-    int status{-1};
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::slurp;
+using test::ToolRun;
 
 ToolRun calibrate(const fs::path& dir, const std::string& arguments) {
-    const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    const std::string command = std::string(AVATAR_CALIBRATE_EXECUTABLE) + " " + arguments + " >" + out.string() +
-                                " 2>" + err.string();
-    const int raw = std::system(command.c_str());
-    ToolRun r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+    return test::runCaptured(std::string(AVATAR_CALIBRATE_EXECUTABLE) + " " + arguments, dir / "stdout.txt",
+                             dir / "stderr.txt");
 }
 
 StereoSystemConfig truthRig() {

@@ -21,6 +21,7 @@
 #include "SampleConfigs.h"
 #include "ScriptedFirewireBus.h"
 #include "TempDir.h"
+#include "ToolRun.h"
 
 #include <avatar/acquire/AcquireSIPFirewire.h>
 #include <avatar/acquire/AcquireSIPGenICam.h>
@@ -63,31 +64,15 @@ const fs::path kLab = kData / "sessions" / "lab";
 
 // ------------------------------------------------------------ running the tools
 
-struct ToolRun {
-    int status{-1};
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::slurp;
+using test::ToolRun;
 
 /// Runs @p executable with @p arguments (shell words), output captured in @p dir.
 ToolRun run(const char* executable, const fs::path& dir, const std::string& arguments) {
     static int calls = 0;
     const std::string n = std::to_string(++calls);
-    const fs::path out = dir / ("stdout" + n + ".txt"), err = dir / ("stderr" + n + ".txt");
-    const std::string command =
-        std::string(executable) + " " + arguments + " >" + out.string() + " 2>" + err.string() + " </dev/null";
-    const int raw = std::system(command.c_str());
-    ToolRun r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+    return test::runCaptured(std::string(executable) + " " + arguments + " </dev/null", dir / ("stdout" + n + ".txt"),
+                             dir / ("stderr" + n + ".txt"));
 }
 
 ToolRun camtest(const fs::path& dir, const std::string& a) { return run(AVATAR_CAMTEST_EXECUTABLE, dir, a); }

@@ -8,9 +8,10 @@
 
 #include "SampleConfigs.h"
 #include "TempDir.h"
+#include "ToolRun.h"
 
 #include "FilterGui.h"
-#include "FilterStats.h"
+#include "ToolImages.h"
 
 #include <avatar/analyze/ImageColorFilter.h>
 #include <avatar/analyze/ImageFeatureLocator.h>
@@ -79,9 +80,9 @@ fs::path labImage() {
 
 /// What the real pipeline finds for @p type on the image as the tool loads it.
 std::vector<Feature> expectedFeatures(const fs::path& image, const TargetType& type) {
-    filterstats::WorkingImage w = filterstats::loadImage(image);
+    tools::WorkingImage w = tools::loadImage(image, tools::kForColourFilter);
     const AvatarConfig config = readConfigFile(kConfig);
-    filterstats::correctLighting(w, config, kConfig.parent_path());
+    tools::correctLighting(w, config, kConfig.parent_path());
     std::vector<cv::Mat> masks;
     colorFilterMasks(w.bgr, w.bitDepth, {type}, masks);
     const cv::Mat kept = type.erodeRestore ? erodeRestore(masks[0], type.erodeKernelSize) : masks[0];
@@ -140,17 +141,8 @@ cv::Mat colourMask(const cv::Mat& bgr, const cv::Scalar& colour) {
     return m;
 }
 
-int run(const std::string& command) {
-    const int rc = std::system(command.c_str());
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::run;
+using test::slurp;
 
 const std::string kExe = AVATAR_FILTERGUI_EXECUTABLE;
 
@@ -415,7 +407,7 @@ TEST(FilterGuiTool, HeadlessViewOutlinesExactlyTheFeaturesThePipelineFinds) {
         for (const cv::Point& c : e.centres) EXPECT_EQ(green.at<std::uint8_t>(c), 255) << c;
         if (scale == 1.0) {
             // Kept pixels are half image, half cyan (away from the overlay).
-            filterstats::WorkingImage w = filterstats::loadImage(image);
+            tools::WorkingImage w = tools::loadImage(image, tools::kForColourFilter);
             const cv::Mat display = toDisplay8(w.bgr, w.bitDepth);
             std::vector<cv::Mat> masks;
             colorFilterMasks(w.bgr, w.bitDepth, {sampleType()}, masks);

@@ -7,8 +7,10 @@
 
 #include "SampleConfigs.h"
 #include "TempDir.h"
+#include "ToolRun.h"
 
 #include "FilterStats.h"
+#include "ToolImages.h"
 
 #include <avatar/analyze/ImageColorFilter.h>
 #include <avatar/common/ImageUtils.h>
@@ -32,7 +34,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct Labelled {
-    filterstats::WorkingImage image;
+    tools::WorkingImage image;
     cv::Mat target, background;
 };
 
@@ -51,7 +53,7 @@ Labelled renderLabelled(const std::string& sceneFile, const std::string& type, s
     Labelled l;
     l.image.bgr = demosaic(r.pair.left(), r.pair.layout().bayerPattern);
     l.image.bitDepth = r.pair.layout().bitDepth;
-    filterstats::correctLighting(l.image, config, configPath.parent_path());
+    tools::correctLighting(l.image, config, configPath.parent_path());
     l.target = cv::Mat::zeros(l.image.bgr.size(), CV_8UC1);
     l.background = cv::Mat(l.image.bgr.size(), CV_8UC1, cv::Scalar(255));
     for (const render::TargetTruth& t : r.truth.targets) {
@@ -76,18 +78,8 @@ filterstats::Rates measured(const Labelled& l, const TargetType& type) {
             static_cast<double>(cv::countNonZero(masks[0] & b)) / cv::countNonZero(b)};
 }
 
-/// Runs a command through the shell; its exit status.
-int run(const std::string& command) {
-    const int rc = std::system(command.c_str());
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::run;
+using test::slurp;
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 
 #include "SampleConfigs.h"
 #include "TempDir.h"
+#include "ToolRun.h"
 
 #include "LightFit.h"
 
@@ -61,7 +62,7 @@ const std::array<std::array<double, 3>, 6> kColours{{{0.85, 0.80, 0.20},
                                                      {0.90, 0.50, 0.10}}};
 
 struct Synthetic {
-    lightfit::WorkingImage image;
+    tools::WorkingImage image;
     std::vector<lightfit::PointPair> pairs;
 };
 
@@ -166,17 +167,8 @@ std::pair<double, double> darkAgainstLight(const Synthetic& s, const LightingCor
     return {worstAfter, worstBefore};
 }
 
-int run(const std::string& command) {
-    const int rc = std::system(command.c_str());
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::run;
+using test::slurp;
 
 void writeFile(const fs::path& p, const std::string& text) {
     std::ofstream out(p);

@@ -3,6 +3,7 @@
 #include "RegistrationScenes.h"
 #include "SampleConfigs.h"
 #include "TempDir.h"
+#include "ToolRun.h"
 
 #include <avatar/common/Registration.h>
 #include <avatar/config/ConfigXml.h>
@@ -19,28 +20,12 @@
 namespace avatar {
 namespace {
 
-struct ToolRun {
-    int status{-1};
-    std::string out, err;
-};
-
-std::string slurp(const std::filesystem::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::slurp;
+using test::ToolRun;
 
 ToolRun run(const test::TempDir& dir, const std::string& arguments) {
-    const auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    const std::string command = std::string(AVATAR_REGISTER_EXECUTABLE) + " " + arguments + " >" + out.string() +
-                                " 2>" + err.string();
-    const int raw = std::system(command.c_str());
-    ToolRun r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+    return test::runCaptured(std::string(AVATAR_REGISTER_EXECUTABLE) + " " + arguments, dir / "stdout.txt",
+                             dir / "stderr.txt");
 }
 
 void writeCsv(const std::filesystem::path& path, const test::PointSet& set) {

@@ -4,6 +4,8 @@
 // docs/tools/avatar-calib-capture.md
 
 #include "CameraTools.h"
+#include "ToolMain.h"
+#include "ToolProgress.h"
 
 #include <avatar/acquire/AcquisitionBackends.h>
 #include <avatar/analyze/StereoCalibration.h>
@@ -29,7 +31,7 @@
 
 namespace po = boost::program_options;
 using namespace avatar;
-using namespace avatar::camtools;
+using namespace avatar::tools;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -249,7 +251,7 @@ int run(const po::variables_map& vm) {
                              {"coverage_percent", {covered(0), covered(1)}},
                              {"min_move_px", minMove},
                              {"pairs", perPair}};
-        writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "report");
+        writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "the report");
     }
     if (saved.unrecorded() > 0) throw IoError("could not save every good pair in " + outDir + ": " + saved.lastError);
     if (saved.recorded < wanted) {
@@ -289,20 +291,14 @@ int main(int argc, char** argv) {
         ("log", po::value<std::string>()->default_value("warn"), "log priority: debug, info, notice, warn, error")
         ("log-config", po::value<std::string>(), "log4cpp property file (instead of --log)");
     // clang-format on
-    po::variables_map vm;
-    try {
-        po::store(po::parse_command_line(argc, argv, options), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "avatar-calib-capture: " << e.what() << " (see avatar-calib-capture --help)\n";
-        return 2;
-    }
-    if (vm.count("help")) {
-        std::cout << options << "\n" << backendHelp()
-                  << "\nExit status: 0 all good pairs saved; 1 a camera, file or value at fault (the message names it),\n"
-                     "or fewer good pairs than asked when the time, the attempts or the source ran out (those found\n"
-                     "are saved); 2 usage.\n";
-        return 0;
-    }
-    return runTool("avatar-calib-capture", [&] { return run(vm); });
+    return runTool("avatar-calib-capture", HelpHint::WithName, [&] {
+        const po::variables_map vm = parseCommandLine(argc, argv, options);
+        if (vm.count("help"))
+            return printHelp(
+                options, backendHelp() +
+                    "\nExit status: 0 all good pairs saved; 1 a camera, file or value at fault (the message names it),\n"
+                    "or fewer good pairs than asked when the time, the attempts or the source ran out (those found\n"
+                    "are saved); 2 usage.\n");
+        return run(vm);
+    });
 }

@@ -4,6 +4,8 @@
 // left/right synchronisation (thesis 4.5.1). User guide: docs/tools/avatar-camtest.md
 
 #include "CameraTools.h"
+#include "ToolMain.h"
+#include "ToolProgress.h"
 
 #include <avatar/acquire/AcquireSIPGenICam.h>
 #include <avatar/acquire/AcquisitionBackends.h>
@@ -26,7 +28,7 @@
 
 namespace po = boost::program_options;
 using namespace avatar;
-using namespace avatar::camtools;
+using namespace avatar::tools;
 using nlohmann::json;
 
 namespace {
@@ -96,7 +98,7 @@ int run(const po::variables_map& vm) {
 
     json report = {{"backend", request.name}};
     const auto finish = [&](int status) {
-        if (vm.count("report")) writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "report");
+        if (vm.count("report")) writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "the report");
         return status;
     };
 
@@ -314,19 +316,13 @@ int main(int argc, char** argv) {
         ("log", po::value<std::string>()->default_value("warn"), "log priority: debug, info, notice, warn, error")
         ("log-config", po::value<std::string>(), "log4cpp property file (instead of --log)");
     // clang-format on
-    po::variables_map vm;
-    try {
-        po::store(po::parse_command_line(argc, argv, options), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "avatar-camtest: " << e.what() << " (see avatar-camtest --help)\n";
-        return 2;
-    }
-    if (vm.count("help")) {
-        std::cout << options << "\n" << backendHelp()
-                  << "\nExit status: 0 all pairs grabbed and saved (--list: every check passed); 1 a camera, file or\n"
-                     "check at fault (the message names it), or fewer pairs than asked; 2 usage.\n";
-        return 0;
-    }
-    return runTool("avatar-camtest", [&] { return run(vm); });
+    return runTool("avatar-camtest", HelpHint::WithName, [&] {
+        const po::variables_map vm = parseCommandLine(argc, argv, options);
+        if (vm.count("help"))
+            return printHelp(
+                options, backendHelp() +
+                    "\nExit status: 0 all pairs grabbed and saved (--list: every check passed); 1 a camera, file or\n"
+                    "check at fault (the message names it), or fewer pairs than asked; 2 usage.\n");
+        return run(vm);
+    });
 }

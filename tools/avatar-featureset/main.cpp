@@ -5,6 +5,8 @@
 // reported by name, not an error. User guide: docs/tools/avatar-featureset.md
 
 #include "CameraTools.h"
+#include "ToolMain.h"
+#include "ToolProgress.h"
 #include "FeatureSet.h"
 
 #include <avatar/acquire/AcquisitionBackends.h>
@@ -24,7 +26,7 @@
 
 namespace po = boost::program_options;
 using namespace avatar;
-using namespace avatar::camtools;
+using namespace avatar::tools;
 using nlohmann::json;
 
 namespace {
@@ -161,7 +163,7 @@ int run(const po::variables_map& vm) {
                    {"written", false}};
     if (out) report["out"] = out->string();
     const auto writeReport = [&] {
-        if (vm.count("report")) writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "report");
+        if (vm.count("report")) writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "the report");
     };
     if (!result.mismatches.empty()) {
         writeReport();
@@ -210,20 +212,14 @@ int main(int argc, char** argv) {
         ("log", po::value<std::string>()->default_value("warn"), "log priority: debug, info, notice, warn, error")
         ("log-config", po::value<std::string>(), "log4cpp property file (instead of --log)");
     // clang-format on
-    po::variables_map vm;
-    try {
-        po::store(po::parse_command_line(argc, argv, options), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "avatar-featureset: " << e.what() << " (see avatar-featureset --help)\n";
-        return 2;
-    }
-    if (vm.count("help")) {
-        std::cout << options << "\n" << backendHelp()
-                  << "\nExit status: 0 the feature set is stored (features a camera lacks are reported, not an error);\n"
-                     "1 a camera, file or value at fault, the values did not settle, or a camera did not keep them\n"
-                     "(the message names it; nothing is written); 2 usage.\n";
-        return 0;
-    }
-    return runTool("avatar-featureset", [&] { return run(vm); });
+    return runTool("avatar-featureset", HelpHint::WithName, [&] {
+        const po::variables_map vm = parseCommandLine(argc, argv, options);
+        if (vm.count("help"))
+            return printHelp(
+                options, backendHelp() +
+                    "\nExit status: 0 the feature set is stored (features a camera lacks are reported, not an error);\n"
+                    "1 a camera, file or value at fault, the values did not settle, or a camera did not keep them\n"
+                    "(the message names it; nothing is written); 2 usage.\n");
+        return run(vm);
+    });
 }

@@ -266,7 +266,7 @@ void applySlider(TargetType& type, const Slider& slider, int position, int bitDe
                         << r.min << ".." << r.max;
 }
 
-Analysis analyse(const filterstats::WorkingImage& image, const TargetType& type, const AnalysisConfig& analysis) {
+Analysis analyse(const tools::WorkingImage& image, const TargetType& type, const AnalysisConfig& analysis) {
     Analysis a;
     std::vector<cv::Mat> masks;
     colorFilterMasks(image.bgr, image.bitDepth, {type}, masks);
@@ -325,7 +325,7 @@ std::string rangesText(const TargetType& type) {
     return s.str();
 }
 
-cv::Mat renderView(const filterstats::WorkingImage& image, const TargetType& type, const Analysis& analysis,
+cv::Mat renderView(const tools::WorkingImage& image, const TargetType& type, const Analysis& analysis,
                    double scale, const std::string& message) {
     if (!(scale > 0.0)) throw InvalidArgument("view scale must be > 0, got " + fmt(scale));
     cv::Mat full = toDisplay8(image.bgr, image.bitDepth);

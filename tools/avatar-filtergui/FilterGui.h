@@ -11,7 +11,7 @@
 /// fault; avatar::ConfigError a range the validator rejects; avatar::IoError
 /// the configuration file that cannot be read or written.
 
-#include "FilterStats.h"
+#include "ToolImages.h"
 
 #include <avatar/analyze/Feature.h>
 #include <avatar/config/AnalysisConfig.h>
@@ -112,7 +112,7 @@ struct Analysis {
 /// @p analysis has the erode_restore stage) and locateFeatures (with the
 /// image as intensity when the centroid is intensity_weighted), exactly as
 /// the analysis stages do.
-Analysis analyse(const filterstats::WorkingImage& image, const TargetType& type, const AnalysisConfig& analysis);
+Analysis analyse(const tools::WorkingImage& image, const TargetType& type, const AnalysisConfig& analysis);
 
 /// The colours of the view (BGR). The tints are blended half and half with
 /// the image, so no tinted pixel is ever the box or cross colour.
@@ -141,7 +141,7 @@ cv::Rect viewBox(const cv::Rect& box, double scale);
 /// tinted, each feature's centroid cross and box, the search window when set,
 /// and kStatusHeight pixels of status below: the counts, the ranges, and
 /// @p message. Size: the scaled image's width by its height + kStatusHeight.
-cv::Mat renderView(const filterstats::WorkingImage& image, const TargetType& type, const Analysis& analysis,
+cv::Mat renderView(const tools::WorkingImage& image, const TargetType& type, const Analysis& analysis,
                    double scale, const std::string& message);
 
 /// The counts line of the status: "sample: 5321 px pass, 5260 kept; 1 feature (of 3 components)".

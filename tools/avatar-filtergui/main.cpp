@@ -4,10 +4,11 @@
 // a key press). User guide: docs/tools/avatar-filtergui.md
 
 #include "FilterGui.h"
-#include "FilterStats.h"
+#include "ToolDisplay.h"
+#include "ToolImages.h"
+#include "ToolMain.h"
 
 #include <avatar/common/Error.h>
-#include <avatar/common/Logging.h>
 #include <avatar/common/StereoImagePairFileIO.h>
 #include <avatar/config/ConfigXml.h>
 
@@ -17,16 +18,11 @@
 
 #include <chrono>
 #include <cstdlib>
-#include <cstring>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
 
 namespace po = boost::program_options;
 namespace fs = std::filesystem;
@@ -34,15 +30,11 @@ using namespace avatar;
 
 namespace {
 
-/// A usage error: exit status 2.
-struct UsageError : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
-
 /// Throws avatar::InvalidState unless the X display of $DISPLAY can be
 /// reached. HighGUI's Qt backend aborts the process when it cannot connect,
-/// so a local display (":N") is tried first; any other form (a remote or
-/// forwarded one) and a non-X11 Qt platform (QT_QPA_PLATFORM) are left to Qt.
+/// so a local display (":N") is tried first (ToolDisplay.h); any other form
+/// (a remote or forwarded one) and a non-X11 Qt platform (QT_QPA_PLATFORM)
+/// are left to Qt.
 void requireDisplay() {
     const char* platform = std::getenv("QT_QPA_PLATFORM");
     if (platform && *platform && std::string(platform).rfind("xcb", 0) != 0) return;  // not X11: Qt's own business
@@ -50,25 +42,15 @@ void requireDisplay() {
     const std::string display = env ? env : "";
     if (display.empty())
         throw InvalidState("no display: DISPLAY is not set (use --headless --render OUT.png to work without a window)");
-    if (display.front() != ':') return;
-    const std::string number = display.substr(1, display.find('.') - 1);
-    const std::string socketPath = "/tmp/.X11-unix/X" + number;
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-    if (fd < 0) return;
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::strncpy(addr.sun_path, socketPath.c_str(), sizeof addr.sun_path - 1);
-    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
-    ::close(fd);
-    if (!ok)
-        throw InvalidState("cannot reach the display DISPLAY=" + display + " (no X server at " + socketPath +
+    if (const std::optional<std::string> socketPath = tools::unreachableLocalDisplay(display))
+        throw InvalidState("cannot reach the display DISPLAY=" + display + " (no X server at " + *socketPath +
                            "; use --headless --render OUT.png to work without a window)");
 }
 
 /// The window's state; HighGUI's callbacks reach it through their userdata.
 class Tuner {
 public:
-    Tuner(const filterstats::WorkingImage& image, const AvatarConfig& config, TargetType type, double scale,
+    Tuner(const tools::WorkingImage& image, const AvatarConfig& config, TargetType type, double scale,
           fs::path source, fs::path destination)
         : image_(image), config_(config), initial_(type), type_(std::move(type)), scale_(scale),
           source_(std::move(source)), destination_(std::move(destination)),
@@ -182,7 +164,7 @@ private:
         }
     }
 
-    const filterstats::WorkingImage& image_;
+    const tools::WorkingImage& image_;
     const AvatarConfig& config_;
     const TargetType initial_;
     TargetType type_;
@@ -195,6 +177,12 @@ private:
     std::vector<std::size_t> moved_;  ///< sliders moved since the last sync
     bool dirty_{true};
 };
+
+/// The slider scales, for --help.
+constexpr const char* kSliderScales =
+    "Slider scales: ratios 0, 0.01..100 on a log scale (100 steps a decade), open; brightness in\n"
+    "1/1000 of 3 x full scale; hue in degrees; saturation and value in 0.01; area 0, 1..1e6 px\n"
+    "on a log scale. The status line below the view gives the exact values.\n";
 
 const TargetType& findType(const AvatarConfig& config, const std::string& name, const std::string& file) {
     std::string names;
@@ -215,13 +203,9 @@ int main(int argc, char** argv) {
         "Window keys: s save the type into the configuration, r reset, q or Esc quit.\n\nOptions");
     // clang-format off
     options.add_options()
-        ("help,h", "show this help")
-        ("image", po::value<std::string>(), "the image: raw (docs/formats.md), 8/16-bit PNG or TIFF, or any 8-bit image file")
-        ("session", po::value<std::string>(), "instead of --image: a recorded session directory")
-        ("iteration", po::value<std::uint64_t>()->default_value(0), "with --session: the record's iteration (0: the first)")
-        ("side", po::value<std::string>()->default_value("left"), "with --session: left or right")
-        ("bayer", po::value<std::string>(), "a 1-channel PNG/TIFF is a Bayer mosaic of this pattern (BG, GB, RG, GR)")
-        ("bit-depth", po::value<int>(), "significant bits of 16-bit samples (default: the raw name's, else 16)")
+        ("help,h", "show this help");
+    tools::addImageOptions(options, "the image: raw (docs/formats.md), 8/16-bit PNG or TIFF, or any 8-bit image file");
+    options.add_options()
         ("config", po::value<std::string>(), "the configuration: its lighting correction, analysis options and the target type")
         ("target", po::value<std::string>(), "the target type to tune (its ranges are the starting point)")
         ("set", po::value<std::vector<std::string>>()->composing(),
@@ -234,61 +218,40 @@ int main(int argc, char** argv) {
         ("exit-after-ms", po::value<int>(), "quit this many ms after the window's first draw (0: right after it)")
         ("log", po::value<std::string>()->default_value("warn"), "log priority");
     // clang-format on
-    po::variables_map vm;
-    try {
-        po::store(po::parse_command_line(argc, argv, options), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "avatar-filtergui: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    if (vm.count("help")) {
-        std::cout << options
-                  << "\nSlider scales: ratios 0, 0.01..100 on a log scale (100 steps a decade), open; brightness in\n"
-                     "1/1000 of 3 x full scale; hue in degrees; saturation and value in 0.01; area 0, 1..1e6 px\n"
-                     "on a log scale. The status line below the view gives the exact values.\n"
-                     "\nExit status: 0 done, 1 an input cannot be used (the message names it), 2 usage.\n";
-        return 0;
-    }
-    std::string usage;
-    if (vm.count("image") + vm.count("session") != 1) usage = "give exactly one of --image and --session";
-    else if (!vm.count("config")) usage = "--config is required";
-    else if (!vm.count("target")) usage = "--target is required";
-    else if (vm.count("headless") && !vm.count("render") && !vm.count("save"))
-        usage = "nothing to do without a window: give --render or --save with --headless";
-    else if (vm.count("headless") && vm.count("exit-after-ms")) usage = "--exit-after-ms needs the window (drop --headless)";
-    else if (vm.count("scale") && !(vm["scale"].as<double>() > 0.0 && vm["scale"].as<double>() <= 4.0))
-        usage = "--scale must be above 0 and at most 4";
-    else if (vm.count("exit-after-ms") && vm["exit-after-ms"].as<int>() < 0) usage = "--exit-after-ms must be >= 0";
-    else if (vm.count("render")) {
-        const std::string ext = fs::path(vm["render"].as<std::string>()).extension().string();
-        if (ext != ".png" && ext != ".tif" && ext != ".tiff")
-            usage = "--render writes the view losslessly: give a .png, .tif or .tiff file";
-    }
-    if (!usage.empty()) {
-        std::cerr << "avatar-filtergui: " << usage << " (see --help)\n";
-        return 2;
-    }
-    try {
-        logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
+    return tools::runTool("avatar-filtergui", tools::HelpHint::Short, [&] {
+        const po::variables_map vm = tools::parseCommandLine(argc, argv, options);
+        if (vm.count("help"))
+            return tools::printHelp(options, std::string(kSliderScales) + "\n" + tools::kInputExitStatus);
+        if (vm.count("image") + vm.count("session") != 1)
+            throw tools::UsageError("give exactly one of --image and --session");
+        if (!vm.count("config")) throw tools::UsageError("--config is required");
+        if (!vm.count("target")) throw tools::UsageError("--target is required");
+        if (vm.count("headless") && !vm.count("render") && !vm.count("save"))
+            throw tools::UsageError("nothing to do without a window: give --render or --save with --headless");
+        if (vm.count("headless") && vm.count("exit-after-ms"))
+            throw tools::UsageError("--exit-after-ms needs the window (drop --headless)");
+        if (vm.count("scale") && !(vm["scale"].as<double>() > 0.0 && vm["scale"].as<double>() <= 4.0))
+            throw tools::UsageError("--scale must be above 0 and at most 4");
+        if (vm.count("exit-after-ms") && vm["exit-after-ms"].as<int>() < 0)
+            throw tools::UsageError("--exit-after-ms must be >= 0");
+        if (vm.count("render")) {
+            const std::string ext = fs::path(vm["render"].as<std::string>()).extension().string();
+            if (ext != ".png" && ext != ".tif" && ext != ".tiff")
+                throw tools::UsageError("--render writes the view losslessly: give a .png, .tif or .tiff file");
+        }
+
+        tools::configureLogging(vm);
         const fs::path configFile = vm["config"].as<std::string>();
         const AvatarConfig config = readConfigFile(configFile);
         TargetType type = findType(config, vm["target"].as<std::string>(), configFile.string());
 
-        filterstats::WorkingImage image;
-        if (vm.count("session")) {
+        if (vm.count("session")) {  // here a --side other than left or right is a usage error
             const std::string side = vm["side"].as<std::string>();
-            if (side != "left" && side != "right") throw UsageError("--side must be left or right, got '" + side + "'");
-            image = filterstats::loadSessionImage(vm["session"].as<std::string>(), vm["iteration"].as<std::uint64_t>(),
-                                                  side == "left" ? Side::Left : Side::Right);
-        } else {
-            std::optional<BayerPattern> bayer;
-            if (vm.count("bayer")) bayer = parseBayerPattern(vm["bayer"].as<std::string>());
-            std::optional<int> bits;
-            if (vm.count("bit-depth")) bits = vm["bit-depth"].as<int>();
-            image = filterstats::loadImage(vm["image"].as<std::string>(), bayer, bits);
+            if (side != "left" && side != "right")
+                throw tools::UsageError("--side must be left or right, got '" + side + "'");
         }
-        filterstats::correctLighting(image, config, configFile.parent_path());
+        tools::WorkingImage image = tools::imageFromOptions(vm, tools::kForColourFilter);
+        tools::correctLighting(image, config, configFile.parent_path());
 
         if (vm.count("set")) {
             try {
@@ -296,9 +259,9 @@ int main(int argc, char** argv) {
                     filtergui::applyAssignment(type, a, image.bitDepth);
                 validateTargetType(type);
             } catch (const ConfigError& e) {
-                throw UsageError(std::string("the ranges after --set are not valid: ") + e.what());
+                throw tools::UsageError(std::string("the ranges after --set are not valid: ") + e.what());
             } catch (const Error& e) {
-                throw UsageError(e.what());
+                throw tools::UsageError(e.what());
             }
         }
         const double scale = vm.count("scale") ? vm["scale"].as<double>() : filtergui::defaultScale(image.bgr.size());
@@ -326,14 +289,5 @@ int main(int argc, char** argv) {
             tuner.run(exitAfter);
         }
         return 0;
-    } catch (const UsageError& e) {
-        std::cerr << "avatar-filtergui: " << e.what() << " (see --help)\n";
-        return 2;
-    } catch (const Error& e) {
-        std::cerr << "avatar-filtergui: " << e.what() << "\n";
-        return 1;
-    } catch (const std::exception& e) {
-        std::cerr << "avatar-filtergui: unexpected error: " << e.what() << "\n";
-        return 1;
-    }
+    });
 }

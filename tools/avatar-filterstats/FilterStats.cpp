@@ -1,11 +1,7 @@
 #include "FilterStats.h"
 
-#include <avatar/acquire/SessionLog.h>
 #include <avatar/analyze/ImageColorFilter.h>
-#include <avatar/analyze/LightingCorrection.h>
 #include <avatar/common/Error.h>
-#include <avatar/common/ImageUtils.h>
-#include <avatar/common/StereoImagePairFileIO.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -23,11 +19,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kOpenMax = 1e9;  ///< an open ratio maximum (passes x/0 too: ImageColorFilter.h)
-
-std::string lower(std::string s) {
-    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return s;
-}
 
 /// One sample pixel.
 struct Px {
@@ -239,100 +230,6 @@ std::string ratesText(const Rates& r) {
 
 }  // namespace
 
-WorkingImage loadImage(const std::filesystem::path& path, std::optional<BayerPattern> bayer,
-                       std::optional<int> bitDepth) {
-    const std::string ext = lower(path.extension().string());
-    WorkingImage w;
-    std::ostringstream what;
-    if (ext == ".raw") {
-        const RawImageName name = RawImageName::parse(path.filename().string());
-        const cv::Mat raw = StereoImagePairFileIO::readRaw(path);
-        w.bitDepth = bitDepth.value_or(name.geometry.bitDepth);
-        if (name.geometry.format == PixelFormat::Bayer) {
-            w.bgr = demosaic(raw, name.geometry.bayerPattern);
-            what << "raw " << name.geometry.bitDepth << "-bit Bayer " << toString(name.geometry.bayerPattern);
-        } else if (raw.channels() == 3) {
-            w.bgr = raw;
-            what << "raw " << name.geometry.bitDepth << "-bit BGR";
-        } else {
-            throw FormatError("image " + path.string() + ": a monochrome raw image has no colour to filter");
-        }
-    } else if (ext == ".png" || ext == ".tif" || ext == ".tiff") {
-        const cv::Mat img = StereoImagePairFileIO::readLossless(path);
-        if (img.depth() != CV_8U && img.depth() != CV_16U)
-            throw FormatError("image " + path.string() + ": samples must be 8- or 16-bit");
-        const int bits = img.depth() == CV_8U ? 8 : 16;
-        w.bitDepth = bitDepth.value_or(bits);
-        if (img.channels() == 1) {
-            if (!bayer)
-                throw FormatError("image " + path.string() +
-                                  " has one channel: give its Bayer pattern (--bayer BG|GB|RG|GR) to demosaic it");
-            w.bgr = demosaic(img, *bayer);
-            what << bits << "-bit Bayer " << toString(*bayer);
-        } else if (img.channels() == 3) {
-            w.bgr = img;
-            what << bits << "-bit BGR";
-        } else {
-            throw FormatError("image " + path.string() + " has " + std::to_string(img.channels()) +
-                              " channels; 3 (or a 1-channel Bayer mosaic) are needed");
-        }
-    } else {
-        w.bgr = StereoImagePairFileIO::readDisplay(path);
-        w.bitDepth = 8;
-        what << "8-bit BGR";
-    }
-    const int maxBits = w.bgr.depth() == CV_8U ? 8 : 16;
-    if (w.bitDepth < 1 || w.bitDepth > maxBits)
-        throw InvalidArgument("bit depth " + std::to_string(w.bitDepth) + " does not fit the " +
-                              std::to_string(maxBits) + "-bit samples of " + path.string());
-    double largest = 0.0;
-    cv::minMaxLoc(w.bgr.reshape(1), nullptr, &largest);
-    if (largest > std::ldexp(1.0, w.bitDepth) - 1.0)
-        throw InvalidArgument("image " + path.string() + " holds samples up to " + std::to_string(cvRound(largest)) +
-                              ", beyond " + std::to_string(w.bitDepth) + " significant bits (--bit-depth)");
-    what << " " << w.bgr.cols << "x" << w.bgr.rows << " (" << path.filename().string() << ")";
-    w.description = what.str();
-    return w;
-}
-
-WorkingImage loadSessionImage(const std::filesystem::path& session, std::uint64_t iteration, Side side) {
-    const SessionLogReader reader(session);
-    const std::vector<SessionRecord> records = reader.records();
-    if (records.empty()) throw FormatError("session " + session.string() + " holds no readable record");
-    const SessionRecord* chosen = &records.front();
-    if (iteration != 0) {
-        chosen = nullptr;
-        for (const SessionRecord& r : records)
-            if (r.iteration == iteration) chosen = &r;
-        if (!chosen)
-            throw InvalidArgument("session " + session.string() + " has no record of iteration " +
-                                  std::to_string(iteration));
-    }
-    const StereoImagePair pair = reader.loadPair(*chosen);
-    const cv::Mat& img = pair.image(side);
-    WorkingImage w;
-    w.bitDepth = pair.layout().bitDepth;
-    w.bgr = pair.layout().format == PixelFormat::Bayer ? demosaic(img, pair.layout().bayerPattern) : img;
-    if (w.bgr.channels() != 3)
-        throw FormatError("session " + session.string() + ": the images are monochrome; a colour filter needs colour");
-    w.description = "session " + session.filename().string() + " iteration " + std::to_string(chosen->iteration) +
-                    (side == Side::Left ? " left" : " right") + " " + std::to_string(w.bgr.cols) + "x" +
-                    std::to_string(w.bgr.rows) + ", " + std::to_string(w.bitDepth) + "-bit";
-    return w;
-}
-
-bool correctLighting(WorkingImage& image, const AvatarConfig& config, const std::filesystem::path& configDir) {
-    const auto& stages = config.analysis.stages;
-    if (std::find(stages.begin(), stages.end(), "lighting") == stages.end()) return false;
-    LightingCorrector corrector(config.lighting, configDir);
-    if (!corrector.enabled()) return false;
-    corrector.prepare(image.bgr.size());
-    image.bgr = image.bgr.clone();
-    corrector.apply(image.bgr, image.bitDepth);
-    image.description += ", lighting-corrected";
-    return true;
-}
-
 cv::Mat loadMask(const std::filesystem::path& path, cv::Size size) {
     const cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
     if (m.empty()) throw IoError("mask " + path.string() + ": cannot be read as an image");
@@ -377,7 +274,7 @@ cv::Mat polygonMask(const std::filesystem::path& path, cv::Size size) {
     return mask;
 }
 
-Proposal propose(const WorkingImage& image, const cv::Mat& targetMask, const cv::Mat& backgroundMask,
+Proposal propose(const tools::WorkingImage& image, const cv::Mat& targetMask, const cv::Mat& backgroundMask,
                  const Options& options) {
     const cv::Mat overlap = targetMask & backgroundMask;
     const cv::Mat targetOnly = targetMask & ~backgroundMask;
@@ -606,7 +503,7 @@ void drawFrame(cv::Mat& img, const Axes& a, const std::string& xLabel, const std
 
 }  // namespace
 
-void writePlots(const std::filesystem::path& dir, const WorkingImage& image, const cv::Mat& targetMask,
+void writePlots(const std::filesystem::path& dir, const tools::WorkingImage& image, const cv::Mat& targetMask,
                 const cv::Mat& backgroundMask, const Proposal& proposal) {
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);

@@ -4,14 +4,16 @@
 /// Figures 3-7 and 6-6 to 6-15): from labelled samples of a target and of its
 /// background in one image, the colour statistics of each and a proposed
 /// target type whose filter separates them, with the true- and false-positive
-/// rates the real colour filter (colorFilterMasks) gives on the samples.
+/// rates the real colour filter (colorFilterMasks) gives on the samples. The
+/// image is read as the colour filter sees it by ToolImages.h
+/// (tools::kForColourFilter).
 ///
 /// Error policy: avatar::IoError / avatar::FormatError name the file at fault,
 /// avatar::InvalidArgument the sample or option (an empty mask, masks of
 /// another size than the image).
 
-#include <avatar/common/ImageFormat.h>
-#include <avatar/config/AvatarConfig.h>
+#include "ToolImages.h"
+
 #include <avatar/config/TargetConfig.h>
 
 #include <opencv2/core/mat.hpp>
@@ -23,29 +25,6 @@
 #include <vector>
 
 namespace avatar::filterstats {
-
-/// The image the colour filter would see: 8- or 16-bit BGR.
-struct WorkingImage {
-    cv::Mat bgr;
-    int bitDepth{8};
-    std::string description;  ///< "raw 16-bit Bayer BG 1280x960", for the report
-};
-
-/// Reads @p path: a raw file named as docs/formats.md says (Bayer demosaiced),
-/// a lossless PNG/TIFF (8- or 16-bit; 3 channels, or 1 channel Bayer with
-/// @p bayer given), or any other 8-bit image file. @p bitDepth overrides the
-/// significant bits of 16-bit samples (default: the raw name's, else 16).
-WorkingImage loadImage(const std::filesystem::path& path, std::optional<BayerPattern> bayer = std::nullopt,
-                       std::optional<int> bitDepth = std::nullopt);
-/// One image of a recorded pair: the record of @p iteration (0: the first) in
-/// the session directory, @p side of it, demosaiced when Bayer.
-WorkingImage loadSessionImage(const std::filesystem::path& session, std::uint64_t iteration, Side side);
-
-/// What the colour filter sees is the image after the configuration's
-/// lighting correction (thesis 3.2): applies it in place when @p config asks
-/// for one (the "lighting" stage with a gain or pattern); @p configDir
-/// resolves its template image. Returns whether it did.
-bool correctLighting(WorkingImage& image, const AvatarConfig& config, const std::filesystem::path& configDir);
 
 /// A sample mask: an 8-bit image, non-zero = sample. Must have @p size.
 cv::Mat loadMask(const std::filesystem::path& path, cv::Size size);
@@ -86,12 +65,12 @@ struct Proposal {
 
 /// The statistics and the proposal. Throws avatar::InvalidArgument when a
 /// mask is empty or the two overlap entirely.
-Proposal propose(const WorkingImage& image, const cv::Mat& targetMask, const cv::Mat& backgroundMask,
+Proposal propose(const tools::WorkingImage& image, const cv::Mat& targetMask, const cv::Mat& backgroundMask,
                  const Options& options);
 
 /// The R/G, R/B, B/G and hue scatter plots against brightness M (target red,
 /// background blue, the proposed limits as lines): rg.png, rb.png, bg.png, hue.png.
-void writePlots(const std::filesystem::path& dir, const WorkingImage& image, const cv::Mat& targetMask,
+void writePlots(const std::filesystem::path& dir, const tools::WorkingImage& image, const cv::Mat& targetMask,
                 const cv::Mat& backgroundMask, const Proposal& proposal);
 
 }  // namespace avatar::filterstats

@@ -4,19 +4,18 @@
 // docs/tools/avatar-filterstats.md
 
 #include "FilterStats.h"
+#include "ToolImages.h"
+#include "ToolMain.h"
+#include "ToolProgress.h"
 
 #include <avatar/common/Error.h>
-#include <avatar/common/Logging.h>
 #include <avatar/config/ConfigXml.h>
 
 #include <boost/program_options.hpp>
 #include <nlohmann/json.hpp>
 
-#include <fstream>
 #include <iostream>
 #include <string>
-
-#include <unistd.h>
 
 namespace po = boost::program_options;
 using namespace avatar;
@@ -30,7 +29,7 @@ json ratesJson(const filterstats::Rates& r) {
     return {{"true_positive_rate", r.truePositive}, {"false_positive_rate", r.falsePositive}};
 }
 
-json reportOf(const filterstats::Proposal& p, const filterstats::WorkingImage& image) {
+json reportOf(const filterstats::Proposal& p, const tools::WorkingImage& image) {
     const TargetType& t = p.type;
     json ranges = {{"rg", rangeJson(t.redGreen)}, {"rb", rangeJson(t.redBlue)}, {"bg", rangeJson(t.blueGreen)},
                    {"brightness", t.brightness ? rangeJson(*t.brightness) : json::array({0.0, nullptr})}};
@@ -64,13 +63,6 @@ json reportOf(const filterstats::Proposal& p, const filterstats::WorkingImage& i
     return report;
 }
 
-void writeText(const std::string& path, const std::string& text, const char* what) {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw IoError(std::string("cannot write ") + what + " " + path);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -80,13 +72,9 @@ int main(int argc, char** argv) {
         "                          --out TARGET.xml --report REPORT.json --plots DIR\n\nOptions");
     // clang-format off
     options.add_options()
-        ("help,h", "show this help")
-        ("image", po::value<std::string>(), "the image: raw (docs/formats.md), 8/16-bit PNG or TIFF, or any 8-bit image file")
-        ("session", po::value<std::string>(), "instead of --image: a recorded session directory")
-        ("iteration", po::value<std::uint64_t>()->default_value(0), "with --session: the record's iteration (0: the first)")
-        ("side", po::value<std::string>()->default_value("left"), "with --session: left or right")
-        ("bayer", po::value<std::string>(), "a 1-channel PNG/TIFF is a Bayer mosaic of this pattern (BG, GB, RG, GR)")
-        ("bit-depth", po::value<int>(), "significant bits of 16-bit samples (default: the raw name's, else 16)")
+        ("help,h", "show this help");
+    tools::addImageOptions(options, "the image: raw (docs/formats.md), 8/16-bit PNG or TIFF, or any 8-bit image file");
+    options.add_options()
         ("config", po::value<std::string>(), "measure after this configuration's lighting correction, as the colour filter sees the image")
         ("target-mask", po::value<std::string>(), "8-bit image, non-zero = target sample")
         ("background-mask", po::value<std::string>(), "8-bit image, non-zero = background sample")
@@ -100,49 +88,24 @@ int main(int argc, char** argv) {
         ("fp-weight", po::value<double>()->default_value(10.0), "a false positive costs this many true positives when choosing")
         ("log", po::value<std::string>()->default_value("warn"), "log priority");
     // clang-format on
-    po::variables_map vm;
-    try {
-        po::store(po::parse_command_line(argc, argv, options), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "avatar-filterstats: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    if (vm.count("help")) {
-        std::cout << options << "\nExit status: 0 done, 1 an input cannot be used (the message names it), 2 usage.\n";
-        return 0;
-    }
-    const auto need = [&](const char* a, const char* b) { return vm.count(a) + vm.count(b) == 1; };
-    std::string usage;
-    if (!need("image", "session")) usage = "give exactly one of --image and --session";
-    else if (!need("target-mask", "target-polygon")) usage = "give exactly one of --target-mask and --target-polygon";
-    else if (!need("background-mask", "background-polygon"))
-        usage = "give exactly one of --background-mask and --background-polygon";
-    else if (!vm.count("name")) usage = "--name is required";
-    else if (!vm.count("out") && !vm.count("report") && !vm.count("merge-into"))
-        usage = "nothing to write: give --out, --report or --merge-into";
-    if (!usage.empty()) {
-        std::cerr << "avatar-filterstats: " << usage << " (see --help)\n";
-        return 2;
-    }
-    try {
-        logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
-        filterstats::WorkingImage image;
-        if (vm.count("session")) {
-            const std::string side = vm["side"].as<std::string>();
-            if (side != "left" && side != "right") throw InvalidArgument("--side must be left or right, got '" + side + "'");
-            image = filterstats::loadSessionImage(vm["session"].as<std::string>(), vm["iteration"].as<std::uint64_t>(),
-                                                  side == "left" ? Side::Left : Side::Right);
-        } else {
-            std::optional<BayerPattern> bayer;
-            if (vm.count("bayer")) bayer = parseBayerPattern(vm["bayer"].as<std::string>());
-            std::optional<int> bits;
-            if (vm.count("bit-depth")) bits = vm["bit-depth"].as<int>();
-            image = filterstats::loadImage(vm["image"].as<std::string>(), bayer, bits);
-        }
+    return tools::runTool("avatar-filterstats", tools::HelpHint::Short, [&] {
+        const po::variables_map vm = tools::parseCommandLine(argc, argv, options);
+        if (vm.count("help")) return tools::printHelp(options, tools::kInputExitStatus);
+        const auto need = [&](const char* a, const char* b) { return vm.count(a) + vm.count(b) == 1; };
+        if (!need("image", "session")) throw tools::UsageError("give exactly one of --image and --session");
+        if (!need("target-mask", "target-polygon"))
+            throw tools::UsageError("give exactly one of --target-mask and --target-polygon");
+        if (!need("background-mask", "background-polygon"))
+            throw tools::UsageError("give exactly one of --background-mask and --background-polygon");
+        if (!vm.count("name")) throw tools::UsageError("--name is required");
+        if (!vm.count("out") && !vm.count("report") && !vm.count("merge-into"))
+            throw tools::UsageError("nothing to write: give --out, --report or --merge-into");
+
+        tools::configureLogging(vm);
+        tools::WorkingImage image = tools::imageFromOptions(vm, tools::kForColourFilter);
         if (vm.count("config")) {
             const std::filesystem::path file = vm["config"].as<std::string>();
-            filterstats::correctLighting(image, readConfigFile(file), file.parent_path());
+            tools::correctLighting(image, readConfigFile(file), file.parent_path());
         }
         const cv::Size size = image.bgr.size();
         const cv::Mat target = vm.count("target-mask")
@@ -155,18 +118,12 @@ int main(int argc, char** argv) {
         o.name = vm["name"].as<std::string>();
         o.falsePositiveWeight = vm["fp-weight"].as<double>();
         if (!(o.falsePositiveWeight >= 0.0)) throw InvalidArgument("--fp-weight must be >= 0");
-        const bool tty = ::isatty(STDERR_FILENO) != 0;
-        if (tty)
-            o.progress = [](int done, int total) {
-                const int width = 30, filled = width * done / std::max(total, 1);
-                std::cerr << "\r[" << std::string(static_cast<std::size_t>(filled), '#')
-                          << std::string(static_cast<std::size_t>(width - filled), ' ') << "] " << done << "/" << total
-                          << " candidate filters" << std::flush;
-            };
+        tools::Progress progress("candidate filters", 0);
+        o.progress = progress.reporter();
         const filterstats::Proposal p = filterstats::propose(image, target, background, o);
-        if (tty) std::cerr << "\n";
+        progress.clear();
         const std::string xml = writeTargetString(p.type);  // validates the proposal
-        if (vm.count("out")) writeText(vm["out"].as<std::string>(), xml, "target element");
+        if (vm.count("out")) tools::writeText(vm["out"].as<std::string>(), xml, "target element");
         if (vm.count("merge-into")) {
             const std::string path = vm["merge-into"].as<std::string>();
             AvatarConfig config = readConfigFile(path);
@@ -185,18 +142,12 @@ int main(int argc, char** argv) {
             writeConfigFile(config, path);
             std::cout << (replaced ? "replaced" : "added") << " target type '" << p.type.name << "' in " << path << "\n";
         }
-        if (vm.count("report")) writeText(vm["report"].as<std::string>(), reportOf(p, image).dump(2) + "\n", "report");
+        if (vm.count("report")) tools::writeText(vm["report"].as<std::string>(), reportOf(p, image).dump(2) + "\n", "report");
         if (vm.count("plots")) filterstats::writePlots(vm["plots"].as<std::string>(), image, target, background, p);
         std::cout << p.type.name << ": " << p.why << "\n"
                   << "on the samples: true positives " << p.rates.truePositive * 100 << " % of "
                   << p.targetSamples << ", false positives " << p.rates.falsePositive * 100 << " % of "
                   << p.backgroundSamples << "\nminimum area " << p.type.area.min << " px: " << p.areaWhy << "\n";
         return 0;
-    } catch (const Error& e) {
-        std::cerr << "avatar-filterstats: " << e.what() << "\n";
-        return 1;
-    } catch (const std::exception& e) {
-        std::cerr << "avatar-filterstats: unexpected error: " << e.what() << "\n";
-        return 1;
-    }
+    });
 }

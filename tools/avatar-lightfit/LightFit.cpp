@@ -1,11 +1,8 @@
 #include "LightFit.h"
 
-#include <avatar/acquire/SessionLog.h>
 #include <avatar/analyze/LightingCorrection.h>
 #include <avatar/common/Error.h>
-#include <avatar/common/ImageUtils.h>
 #include <avatar/common/Logging.h>
-#include <avatar/common/StereoImagePairFileIO.h>
 
 #include <log4cpp/Category.hh>
 #include <opencv2/core.hpp>
@@ -60,109 +57,13 @@ bool isImageFile(const std::filesystem::path& p) {
 
 /// Per-channel sums of an image as a fraction of its full scale, as a 1x1
 /// CV_64FC3 image: frameAverageGains() of such images is the ratio of the sums.
-cv::Mat normalisedSums(const WorkingImage& image) {
+cv::Mat normalisedSums(const tools::WorkingImage& image) {
     const cv::Scalar sum = cv::sum(image.bgr);
     const double fullScale = std::ldexp(1.0, image.bitDepth) - 1.0;
     return cv::Mat(1, 1, CV_64FC3, cv::Scalar(sum[0] / fullScale, sum[1] / fullScale, sum[2] / fullScale));
 }
 
 }  // namespace
-
-// ---- images --------------------------------------------------------------------
-
-WorkingImage loadImage(const std::filesystem::path& path, std::optional<BayerPattern> bayer,
-                       std::optional<int> bitDepth) {
-    const std::string ext = lower(path.extension().string());
-    WorkingImage w;
-    std::ostringstream what;
-    if (ext == ".raw") {
-        const RawImageName name = RawImageName::parse(path.filename().string());
-        const cv::Mat raw = StereoImagePairFileIO::readRaw(path);
-        w.bitDepth = bitDepth.value_or(name.geometry.bitDepth);
-        if (name.geometry.format == PixelFormat::Bayer) {
-            w.bgr = demosaic(raw, name.geometry.bayerPattern);
-            what << "raw " << name.geometry.bitDepth << "-bit Bayer " << toString(name.geometry.bayerPattern);
-        } else if (raw.channels() == 3) {
-            w.bgr = raw;
-            what << "raw " << name.geometry.bitDepth << "-bit BGR";
-        } else {
-            throw FormatError("image " + path.string() + ": a monochrome raw image has no colour channels to correct");
-        }
-    } else if (ext == ".png" || ext == ".tif" || ext == ".tiff") {
-        const cv::Mat img = StereoImagePairFileIO::readLossless(path);
-        if (img.depth() != CV_8U && img.depth() != CV_16U)
-            throw FormatError("image " + path.string() + ": samples must be 8- or 16-bit, got " +
-                              cv::typeToString(img.type()));
-        const int bits = img.depth() == CV_8U ? 8 : 16;
-        // A PNG named like a raw file (a session's lossless archive,
-        // docs/formats.md) says its layout and bit depth itself.
-        std::optional<RawImageGeometry> named;
-        if (ext == ".png") {
-            try {
-                named = RawImageName::parse(path.filename().string()).geometry;
-            } catch (const FormatError&) {
-            }
-        }
-        w.bitDepth = bitDepth.value_or(named ? named->bitDepth : bits);
-        if (img.channels() == 1 && !bayer && named && named->format == PixelFormat::Bayer) bayer = named->bayerPattern;
-        if (img.channels() == 1) {
-            if (!bayer)
-                throw FormatError("image " + path.string() +
-                                  " has one channel: give its Bayer pattern (--bayer BG|GB|RG|GR) to demosaic it");
-            w.bgr = demosaic(img, *bayer);
-            what << bits << "-bit Bayer " << toString(*bayer);
-        } else if (img.channels() == 3) {
-            w.bgr = img;
-            what << bits << "-bit BGR";
-        } else {
-            throw FormatError("image " + path.string() + " has " + std::to_string(img.channels()) +
-                              " channels; 3 (or a 1-channel Bayer mosaic) are needed");
-        }
-    } else {
-        w.bgr = StereoImagePairFileIO::readDisplay(path);
-        w.bitDepth = 8;
-        what << "8-bit BGR";
-    }
-    const int maxBits = w.bgr.depth() == CV_8U ? 8 : 16;
-    if (w.bitDepth < 1 || w.bitDepth > maxBits)
-        throw InvalidArgument("bit depth " + std::to_string(w.bitDepth) + " does not fit the " +
-                              std::to_string(maxBits) + "-bit samples of " + path.string());
-    double largest = 0.0;
-    cv::minMaxLoc(w.bgr.reshape(1), nullptr, &largest);
-    if (largest > std::ldexp(1.0, w.bitDepth) - 1.0)
-        throw InvalidArgument("image " + path.string() + " holds samples up to " + std::to_string(cvRound(largest)) +
-                              ", beyond " + std::to_string(w.bitDepth) + " significant bits (--bit-depth)");
-    what << " " << sizeText(w.bgr.size()) << " (" << path.filename().string() << ")";
-    w.description = what.str();
-    return w;
-}
-
-WorkingImage loadSessionImage(const std::filesystem::path& session, std::uint64_t iteration, Side side) {
-    const SessionLogReader reader(session);
-    const std::vector<SessionRecord> records = reader.records();
-    if (records.empty()) throw FormatError("session " + session.string() + " holds no readable record");
-    const SessionRecord* chosen = &records.front();
-    if (iteration != 0) {
-        chosen = nullptr;
-        for (const SessionRecord& r : records)
-            if (r.iteration == iteration) chosen = &r;
-        if (!chosen)
-            throw InvalidArgument("session " + session.string() + " has no record of iteration " +
-                                  std::to_string(iteration));
-    }
-    const StereoImagePair pair = reader.loadPair(*chosen);
-    const cv::Mat& img = pair.image(side);
-    WorkingImage w;
-    w.bitDepth = pair.layout().bitDepth;
-    w.bgr = pair.layout().format == PixelFormat::Bayer ? demosaic(img, pair.layout().bayerPattern) : img;
-    if (w.bgr.channels() != 3)
-        throw FormatError("session " + session.string() +
-                          ": the images are monochrome; the lighting correction needs colour");
-    w.description = "session " + session.filename().string() + " iteration " + std::to_string(chosen->iteration) +
-                    (side == Side::Left ? " left " : " right ") + sizeText(w.bgr.size()) + ", " +
-                    std::to_string(w.bitDepth) + "-bit";
-    return w;
-}
 
 // ---- pairs ---------------------------------------------------------------------
 
@@ -225,8 +126,8 @@ Model parseModel(const std::string& text) {
 
 const char* toString(Model model) { return model == Model::Thesis ? "thesis" : "paired"; }
 
-std::vector<Sample> samplePairs(const WorkingImage& image, const std::vector<PointPair>& pairs, cv::Point2d centre,
-                                int patch, const std::string& source) {
+std::vector<Sample> samplePairs(const tools::WorkingImage& image, const std::vector<PointPair>& pairs,
+                                cv::Point2d centre, int patch, const std::string& source) {
     const cv::Rect whole(0, 0, image.bgr.cols, image.bgr.rows);
     const double fullScale = std::ldexp(1.0, image.bitDepth) - 1.0;
     const int half = patch / 2;
@@ -448,7 +349,7 @@ double Fit::modelRatio(std::size_t k, double x) const {
     return std::exp(f.exponent * x);
 }
 
-Fit fitFalloff(const WorkingImage& image, const std::vector<PointPair>& pairs, const Options& options,
+Fit fitFalloff(const tools::WorkingImage& image, const std::vector<PointPair>& pairs, const Options& options,
                const std::string& source) {
     if (options.patch < 1 || options.patch > 101 || options.patch % 2 == 0)
         throw InvalidArgument("the patch size must be odd, 1..101, got " + std::to_string(options.patch));
@@ -627,8 +528,8 @@ Gains frameAverageGainsOfSets(const std::filesystem::path& raw, const std::files
     std::vector<cv::Mat> rawSums, correctedSums;
     const int total = static_cast<int>(gains.pairs.size());
     for (GainPair& pair : gains.pairs) {
-        const WorkingImage r = loadImage(pair.raw, bayer);
-        const WorkingImage c = loadImage(pair.corrected, bayer);
+        const tools::WorkingImage r = tools::loadImage(pair.raw, tools::kForLightingCorrection, bayer);
+        const tools::WorkingImage c = tools::loadImage(pair.corrected, tools::kForLightingCorrection, bayer);
         if (r.bgr.size() != c.bgr.size())
             throw InvalidArgument("the raw image " + pair.raw.string() + " is " + sizeText(r.bgr.size()) +
                                   " but its corrected image " + pair.corrected.string() + " is " +

@@ -22,8 +22,13 @@
 /// remove between the two points of each pair wherever they lie, and sets c so
 /// that the factor is 1 at the light points' mean distance.
 ///
+/// The image is read as the lighting correction sees it by ToolImages.h
+/// (tools::kForLightingCorrection).
+///
 /// Error policy: avatar::IoError / avatar::FormatError name the file at fault
 /// (and its line), avatar::InvalidArgument the pair, point or option.
+
+#include "ToolImages.h"
 
 #include <avatar/common/ImageFormat.h>
 #include <avatar/config/LightingConfig.h>
@@ -40,29 +45,6 @@
 #include <vector>
 
 namespace avatar::lightfit {
-
-/// An image as the lighting correction sees it: 8- or 16-bit BGR.
-struct WorkingImage {
-    cv::Mat bgr;
-    int bitDepth{8};          ///< significant bits of the samples
-    std::string description;  ///< "raw 16-bit Bayer BG 1280x960 (L_...raw)", for the report
-};
-
-/// Reads @p path: a raw file named as docs/formats.md says (a Bayer mosaic is
-/// demosaiced), a lossless PNG/TIFF (8- or 16-bit; 3 channels, or 1 channel
-/// Bayer with @p bayer given or, for a PNG named like a raw file as a session
-/// archives it, the name's pattern), or any other 8-bit image file.
-/// @p bitDepth overrides the significant bits (default: the raw name's, else
-/// 8 or 16).
-/// IoError for a file that cannot be read, FormatError for one that cannot be
-/// used (a monochrome image, one channel without @p bayer), InvalidArgument
-/// for samples beyond @p bitDepth; each names the file.
-WorkingImage loadImage(const std::filesystem::path& path, std::optional<BayerPattern> bayer = std::nullopt,
-                       std::optional<int> bitDepth = std::nullopt);
-
-/// One image of a recorded pair: the record of @p iteration (0: the first) in
-/// the session directory, @p side of it, demosaiced when Bayer.
-WorkingImage loadSessionImage(const std::filesystem::path& session, std::uint64_t iteration, Side side);
 
 /// A light point and the dark point picked on a similar object, in pixels
 /// (column, row; integer = pixel centre).
@@ -165,7 +147,7 @@ struct Fit {
 /// InvalidArgument naming @p source, the line and the point for a point
 /// outside the image or a patch mean of 0 in a channel (no ratio can be
 /// formed); a saturated patch is logged as a warning and flagged.
-std::vector<Sample> samplePairs(const WorkingImage& image, const std::vector<PointPair>& pairs,
+std::vector<Sample> samplePairs(const tools::WorkingImage& image, const std::vector<PointPair>& pairs,
                                 cv::Point2d centre, int patch, const std::string& source);
 
 /// Fits y = c * exp(e * x) by Levenberg-Marquardt from the (unweighted)
@@ -183,7 +165,7 @@ ChannelFit fitExponential(const std::vector<double>& x, const std::vector<double
 /// for fewer than 2 pairs, dark points that all lie at one distance from the
 /// centre (paired: pairs whose distance differences do not spread), or an
 /// option out of range (patch not odd in 1..101).
-Fit fitFalloff(const WorkingImage& image, const std::vector<PointPair>& pairs, const Options& options,
+Fit fitFalloff(const tools::WorkingImage& image, const std::vector<PointPair>& pairs, const Options& options,
                const std::string& source);
 
 /// @p config with the pattern set from @p fit: enabled, centre, the three
@@ -213,9 +195,9 @@ struct Gains {
 /// raw images and their corrected references. @p raw and @p corrected are
 /// both directories (images paired by file name without extension: every raw
 /// image needs a corrected one) or both image files. Each image is read with
-/// loadImage() and taken as a fraction of its full scale, so a 16-bit raw
-/// image may have an 8-bit reference: the gains then map raw samples to the
-/// reference's brightness in raw units. @p progress is called with (done,
+/// tools::loadImage() (tools::kForLightingCorrection) and taken as a fraction
+/// of its full scale, so a 16-bit raw image may have an 8-bit reference: the
+/// gains then map raw samples to the reference's brightness in raw units. @p progress is called with (done,
 /// total) pairs. IoError / FormatError / InvalidArgument naming the file or
 /// directory at fault (an empty directory, a raw image without reference,
 /// images of different sizes).

@@ -1,4 +1,5 @@
 #include "Pick.h"
+#include "ToolDisplay.h"
 
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
@@ -9,13 +10,8 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <cstring>
 #include <optional>
 #include <string>
-
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
 
 namespace avatar::lightfit {
 namespace {
@@ -46,7 +42,7 @@ void onMouse(int event, int x, int y, int /*flags*/, void* data) {
 }
 
 /// The image stretched so that its 99.5th percentile of samples is white.
-cv::Mat displayImage(const WorkingImage& image) {
+cv::Mat displayImage(const tools::WorkingImage& image) {
     cv::Mat display = toDisplay8(image.bgr, image.bitDepth);
     cv::Mat hist;
     const cv::Mat flat = display.reshape(1);
@@ -70,30 +66,23 @@ cv::Mat displayImage(const WorkingImage& image) {
 }
 
 /// HighGUI (Qt) aborts the process when it cannot reach the display, so the
-/// local X server's socket is tried first.
+/// local X server's socket is tried first (ToolDisplay.h).
 void requireDisplay() {
     const char* x = std::getenv("DISPLAY");
     const std::string display = x ? x : "";
     if (display.empty() && !std::getenv("WAYLAND_DISPLAY"))
         throw InvalidState("--pick needs a display (neither DISPLAY nor WAYLAND_DISPLAY is set); write the pairs "
                            "file by hand and give it with --pairs");
-    if (display.empty() || display.front() != ':') return;  // Wayland, or a remote X server: let HighGUI try
-    const std::string socketPath = "/tmp/.X11-unix/X" + display.substr(1, display.find('.') - 1);
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-    if (fd < 0) return;
-    sockaddr_un address{};
-    address.sun_family = AF_UNIX;
-    std::strncpy(address.sun_path, socketPath.c_str(), sizeof address.sun_path - 1);
-    const bool reached = ::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0;
-    ::close(fd);
-    if (!reached)
-        throw InvalidState("--pick cannot reach the display DISPLAY=" + display + " (no X server at " + socketPath +
+    // A local X server must answer; Wayland or a remote X server is left to HighGUI.
+    if (const std::optional<std::string> socketPath = tools::unreachableLocalDisplay(display))
+        throw InvalidState("--pick cannot reach the display DISPLAY=" + display + " (no X server at " + *socketPath +
                            ")");
 }
 
 }  // namespace
 
-std::vector<PointPair> pickPairs(const WorkingImage& image, cv::Point2d centre, const std::vector<PointPair>& start) {
+std::vector<PointPair> pickPairs(const tools::WorkingImage& image, cv::Point2d centre,
+                                 const std::vector<PointPair>& start) {
     requireDisplay();
     const cv::Mat base = displayImage(image);
     PickState state;

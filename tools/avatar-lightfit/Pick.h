@@ -16,6 +16,7 @@ namespace avatar::lightfit {
 /// 'q', Esc or closing the window ends. Starts from @p start (the pairs of an
 /// existing file). Returns the complete pairs. Throws avatar::InvalidState when
 /// no window can be opened (no display).
-std::vector<PointPair> pickPairs(const WorkingImage& image, cv::Point2d centre, const std::vector<PointPair>& start);
+std::vector<PointPair> pickPairs(const tools::WorkingImage& image, cv::Point2d centre,
+                                 const std::vector<PointPair>& start);
 
 }  // namespace avatar::lightfit

@@ -6,6 +6,9 @@
 // docs/tools/avatar-lightfit.md
 
 #include "LightFit.h"
+#include "ToolImages.h"
+#include "ToolMain.h"
+#include "ToolProgress.h"
 #ifdef AVATAR_LIGHTFIT_PICK
 #include "Pick.h"
 #endif
@@ -22,14 +25,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <unistd.h>
 
 namespace po = boost::program_options;
 namespace fs = std::filesystem;
@@ -117,13 +117,6 @@ json reportOf(const lightfit::Fit& fit) {
             {"samples", samples}};
 }
 
-void writeText(const std::string& path, const std::string& text, const char* what) {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw IoError(std::string("cannot write ") + what + " " + path);
-}
-
 /// How the configuration refers to the template: relative to its directory
 /// when the template lies inside it, else absolute.
 std::string storedTemplatePath(const fs::path& configFile, const fs::path& templateFile) {
@@ -152,13 +145,10 @@ int main(int argc, char** argv) {
         "Options");
     // clang-format off
     options.add_options()
-        ("help,h", "show this help")
-        ("image", po::value<std::string>(), "the uncorrected image the pairs were picked on: raw (docs/formats.md), 8/16-bit PNG or TIFF, or any 8-bit image file")
-        ("session", po::value<std::string>(), "instead of --image: a recorded session directory")
-        ("iteration", po::value<std::uint64_t>()->default_value(0), "with --session: the record's iteration (0: the first)")
-        ("side", po::value<std::string>()->default_value("left"), "with --session: left or right")
-        ("bayer", po::value<std::string>(), "a 1-channel PNG/TIFF is a Bayer mosaic of this pattern (BG, GB, RG, GR)")
-        ("bit-depth", po::value<int>(), "significant bits of 16-bit samples (default: the raw name's, else 16)")
+        ("help,h", "show this help");
+    tools::addImageOptions(options, "the uncorrected image the pairs were picked on: raw (docs/formats.md), "
+                                    "8/16-bit PNG or TIFF, or any 8-bit image file");
+    options.add_options()
         ("pairs", po::value<std::string>(), "CSV of point pairs, one 'light_x,light_y,dark_x,dark_y' per line ('#' comments)")
 #ifdef AVATAR_LIGHTFIT_PICK
         ("pick", "pick the pairs on the image in a window first, and save them to --pairs")
@@ -175,49 +165,34 @@ int main(int argc, char** argv) {
         ("plot", po::value<std::string>(), "write the data ratios and the fitted curves here (PNG)")
         ("log", po::value<std::string>()->default_value("warn"), "log priority: debug, info, notice, warn, error");
     // clang-format on
-    po::variables_map vm;
-    try {
+    return tools::runTool("avatar-lightfit", tools::HelpHint::Short, [&] {
         const std::vector<std::string> args = joinCentre(argc, argv);
         std::vector<const char*> argp;
         for (const std::string& a : args) argp.push_back(a.c_str());
-        po::store(po::parse_command_line(static_cast<int>(argp.size()), argp.data(), options), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "avatar-lightfit: " << e.what() << " (see --help)\n";
-        return 2;
-    }
-    if (vm.count("help")) {
-        std::cout << options << "\nExit status: 0 done, 1 an input cannot be used (the message names it), 2 usage.\n";
-        return 0;
-    }
-    const bool fitting = vm.count("pairs") != 0;
-    const bool gains = vm.count("raw-set") + vm.count("corrected-set") > 0;
-    const bool pick = vm.count("pick") != 0;
-    std::optional<cv::Point2d> centre;
-    std::string usage;
-    if (vm.count("centre") && !(centre = parseCentre(vm["centre"].as<std::string>())))
-        usage = "--centre takes two numbers X Y, got '" + vm["centre"].as<std::string>() + "'";
-    else if (!fitting && !gains)
-        usage = "nothing to do: give --pairs (the falloff) or --raw-set and --corrected-set (the gains)";
-    else if (gains && vm.count("raw-set") + vm.count("corrected-set") != 2)
-        usage = "give both --raw-set and --corrected-set";
-    else if (fitting && vm.count("image") + vm.count("session") != 1)
-        usage = "give exactly one of --image and --session: the image the pairs were picked on";
-    else if (!fitting && (vm.count("image") || vm.count("session") || pick))
-        usage = "--image, --session and --pick go with --pairs";
-    else if (!fitting && (vm.count("template") || vm.count("plot")))
-        usage = "--template and --plot need the falloff: give --pairs";
-    else if (!vm.count("out") && !vm.count("template") && !vm.count("report") && !vm.count("plot"))
-        usage = "nothing to write: give --out, --template, --report or --plot";
-    if (!usage.empty()) {
-        std::cerr << "avatar-lightfit: " << usage << " (see --help)\n";
-        return 2;
-    }
+        const po::variables_map vm = tools::parseCommandLine(static_cast<int>(argp.size()), argp.data(), options);
+        if (vm.count("help")) return tools::printHelp(options, tools::kInputExitStatus);
+        const bool fitting = vm.count("pairs") != 0;
+        const bool gains = vm.count("raw-set") + vm.count("corrected-set") > 0;
+        const bool pick = vm.count("pick") != 0;
+        std::optional<cv::Point2d> centre;
+        if (vm.count("centre") && !(centre = parseCentre(vm["centre"].as<std::string>())))
+            throw tools::UsageError("--centre takes two numbers X Y, got '" + vm["centre"].as<std::string>() + "'");
+        if (!fitting && !gains)
+            throw tools::UsageError(
+                "nothing to do: give --pairs (the falloff) or --raw-set and --corrected-set (the gains)");
+        if (gains && vm.count("raw-set") + vm.count("corrected-set") != 2)
+            throw tools::UsageError("give both --raw-set and --corrected-set");
+        if (fitting && vm.count("image") + vm.count("session") != 1)
+            throw tools::UsageError("give exactly one of --image and --session: the image the pairs were picked on");
+        if (!fitting && (vm.count("image") || vm.count("session") || pick))
+            throw tools::UsageError("--image, --session and --pick go with --pairs");
+        if (!fitting && (vm.count("template") || vm.count("plot")))
+            throw tools::UsageError("--template and --plot need the falloff: give --pairs");
+        if (!vm.count("out") && !vm.count("template") && !vm.count("report") && !vm.count("plot"))
+            throw tools::UsageError("nothing to write: give --out, --template, --report or --plot");
 
-    try {
-        logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
+        tools::configureLogging(vm);
         log4cpp::Category& log = logging::category("lightfit");
-        const bool tty = ::isatty(STDERR_FILENO) != 0;
         json report;
         std::optional<lightfit::Fit> fit;
         cv::Size imageSize;
@@ -233,21 +208,7 @@ int main(int argc, char** argv) {
         }
 
         if (fitting) {
-            lightfit::WorkingImage image;
-            if (vm.count("session")) {
-                const std::string side = vm["side"].as<std::string>();
-                if (side != "left" && side != "right")
-                    throw InvalidArgument("--side must be left or right, got '" + side + "'");
-                image = lightfit::loadSessionImage(vm["session"].as<std::string>(),
-                                                   vm["iteration"].as<std::uint64_t>(),
-                                                   side == "left" ? Side::Left : Side::Right);
-            } else {
-                std::optional<BayerPattern> bayer;
-                if (vm.count("bayer")) bayer = parseBayerPattern(vm["bayer"].as<std::string>());
-                std::optional<int> bits;
-                if (vm.count("bit-depth")) bits = vm["bit-depth"].as<int>();
-                image = lightfit::loadImage(vm["image"].as<std::string>(), bayer, bits);
-            }
+            const tools::WorkingImage image = tools::imageFromOptions(vm, tools::kForLightingCorrection);
             imageSize = image.bgr.size();
             const std::string pairsPath = vm["pairs"].as<std::string>();
             lightfit::Options o;
@@ -275,17 +236,10 @@ int main(int argc, char** argv) {
         if (gains) {
             std::optional<BayerPattern> bayer;
             if (vm.count("bayer")) bayer = parseBayerPattern(vm["bayer"].as<std::string>());
-            std::function<void(int, int)> progress;
-            if (tty)
-                progress = [](int done, int total) {
-                    const int width = 30, filled = width * done / std::max(total, 1);
-                    std::cerr << "\r[" << std::string(static_cast<std::size_t>(filled), '#')
-                              << std::string(static_cast<std::size_t>(width - filled), ' ') << "] " << done << "/"
-                              << total << " image pairs" << std::flush;
-                };
+            tools::Progress progress("image pairs", 0);
             g = lightfit::frameAverageGainsOfSets(vm["raw-set"].as<std::string>(),
-                                                  vm["corrected-set"].as<std::string>(), bayer, progress);
-            if (tty) std::cerr << "\n";
+                                                  vm["corrected-set"].as<std::string>(), bayer, progress.reporter());
+            progress.clear();
             json perPair = json::array();
             for (const lightfit::GainPair& p : g->pairs)
                 perPair.push_back(
@@ -333,7 +287,7 @@ int main(int argc, char** argv) {
             writeConfigFile(*config, path);
             report["config"] = path;
         }
-        if (vm.count("report")) writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "report");
+        if (vm.count("report")) tools::writeText(vm["report"].as<std::string>(), report.dump(2) + "\n", "report");
         if (vm.count("plot")) lightfit::writePlot(vm["plot"].as<std::string>(), *fit);
 
         if (fit) {
@@ -364,11 +318,5 @@ int main(int argc, char** argv) {
                       << fixed(g->gainsRgb[2], 6) << "\n";
         if (config) std::cout << "<lighting> written into " << vm["out"].as<std::string>() << "\n";
         return 0;
-    } catch (const Error& e) {
-        std::cerr << "avatar-lightfit: " << e.what() << "\n";
-        return 1;
-    } catch (const std::exception& e) {
-        std::cerr << "avatar-lightfit: unexpected error: " << e.what() << "\n";
-        return 1;
-    }
+    });
 }

@@ -1,15 +1,16 @@
 #pragma once
 /// @file CameraTools.h
 /// What the camera utilities (avatar-camtest, avatar-featureset,
-/// avatar-calib-capture; thesis 4.2.4, 4.5.1) share: the backend options of
-/// the command line (the backend table of AcquisitionBackends.h, as taunet
-/// offers it), the progress bar, saving pairs (a session directory the replay
-/// backend and avatar-calibrate read, or numbered PNG files), and the report
-/// and exit-status conventions (0 done, 1 an input or camera at fault, 2 usage).
+/// avatar-calib-capture; thesis 4.2.4, 4.5.1) share beyond what every tool
+/// shares (ToolMain.h, ToolProgress.h): the backend options of the command
+/// line (the backend table of AcquisitionBackends.h, as taunet offers it) and
+/// saving pairs (a session directory the replay backend and avatar-calibrate
+/// read, or numbered PNG files). Usage errors are ToolMain.h's UsageError.
+
+#include "ToolMain.h"
 
 #include <avatar/acquire/AcquisitionBackends.h>
 #include <avatar/acquire/SessionRecorder.h>
-#include <avatar/common/Error.h>
 #include <avatar/common/StereoImagePair.h>
 
 #include <boost/program_options.hpp>
@@ -17,18 +18,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
-namespace avatar::camtools {
-
-/// A command line that cannot be used: exit status 2.
-class UsageError : public InvalidArgument {
-public:
-    using InvalidArgument::InvalidArgument;
-};
+namespace avatar::tools {
 
 /// Adds the options that choose and set up the backend (--backend, --config,
 /// --session, --scene, --seed, --left-files, --right-files, --first,
@@ -48,31 +42,6 @@ void requireBackendOptions(const BackendRequest& request, bool toAcquire);
 
 /// The backends, one per line, for --help.
 std::string backendHelp();
-
-/// Configures logging from --log (a priority), or from --log-config.
-void configureLogging(const boost::program_options::variables_map& vm);
-
-/// A progress bar redrawn in place on standard error when it is a terminal;
-/// nothing otherwise (then the lines a tool prints are its progress).
-class Progress {
-public:
-    Progress(std::string what, std::size_t total);
-    ~Progress();
-    Progress(const Progress&) = delete;
-    Progress& operator=(const Progress&) = delete;
-    /// Redraws the bar: @p done of the total, and a short note.
-    void update(std::size_t done, const std::string& note = {});
-    /// Prints @p text as a line of standard output, above the bar.
-    void line(const std::string& text);
-    /// Removes the bar.
-    void clear();
-
-private:
-    std::string what_;
-    std::size_t total_;
-    bool tty_;
-    bool shown_{false};
-};
 
 /// How pairs are saved.
 enum class SaveFormat {
@@ -119,11 +88,4 @@ private:
     std::unique_ptr<SessionRecorder> recorder_;
 };
 
-/// Writes @p text to @p path; IoError naming @p what and the path on failure.
-void writeText(const std::filesystem::path& path, const std::string& text, const std::string& what);
-
-/// Runs @p body and turns what it throws into the exit status: UsageError 2,
-/// any other error 1 (the message, prefixed with @p tool, on standard error).
-int runTool(const std::string& tool, const std::function<int()>& body);
-
-}  // namespace avatar::camtools
+}  // namespace avatar::tools

@@ -1,19 +1,14 @@
 #include "CameraTools.h"
 
-#include <avatar/common/Logging.h>
 #include <avatar/common/StereoImagePairFileIO.h>
 #include <avatar/config/ConfigXml.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <fstream>
-#include <iostream>
-
-#include <unistd.h>
 
 namespace po = boost::program_options;
 
-namespace avatar::camtools {
+namespace avatar::tools {
 
 namespace {
 
@@ -132,39 +127,6 @@ std::string backendHelp() {
     return out;
 }
 
-void configureLogging(const po::variables_map& vm) {
-    if (vm.count("log-config"))
-        logging::configureFromFile(vm["log-config"].as<std::string>());
-    else
-        logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
-}
-
-// ---------------------------------------------------------------- progress
-
-Progress::Progress(std::string what, std::size_t total)
-    : what_(std::move(what)), total_(total), tty_(::isatty(STDERR_FILENO) == 1) {}
-
-Progress::~Progress() { clear(); }
-
-void Progress::update(std::size_t done, const std::string& note) {
-    if (!tty_) return;
-    const std::size_t width = 30;
-    const std::size_t filled = total_ == 0 ? width : std::min(width, done * width / total_);
-    std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, '.') << "] " << done << "/"
-              << total_ << " " << what_ << (note.empty() ? "" : ": " + note) << "\033[K" << std::flush;
-    shown_ = true;
-}
-
-void Progress::line(const std::string& text) {
-    clear();
-    std::cout << text << std::endl;
-}
-
-void Progress::clear() {
-    if (tty_ && shown_) std::cerr << "\r\033[K" << std::flush;
-    shown_ = false;
-}
-
 // ---------------------------------------------------------------- saving
 
 SaveFormat parseSaveFormat(const std::string& text) {
@@ -224,31 +186,4 @@ void PairSaver::flush() { recorder_->flush(); }
 
 SessionRecorderStatus PairSaver::status() const { return recorder_->status(); }
 
-// ---------------------------------------------------------------- reports, exit status
-
-void writeText(const std::filesystem::path& path, const std::string& text, const std::string& what) {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw IoError("cannot write the " + what + " " + path.string());
-}
-
-int runTool(const std::string& tool, const std::function<int()>& body) {
-    try {
-        return body();
-    } catch (const UsageError& e) {
-        std::cerr << tool << ": " << e.what() << " (see " << tool << " --help)\n";
-        return 2;
-    } catch (const po::error& e) {
-        std::cerr << tool << ": " << e.what() << " (see " << tool << " --help)\n";
-        return 2;
-    } catch (const Error& e) {
-        std::cerr << tool << ": " << e.what() << "\n";
-        return 1;
-    } catch (const std::exception& e) {
-        std::cerr << tool << ": unexpected error: " << e.what() << "\n";
-        return 1;
-    }
-}
-
-}  // namespace avatar::camtools
+}  // namespace avatar::tools
