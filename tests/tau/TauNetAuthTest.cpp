@@ -368,6 +368,31 @@ TEST(TauNetUnix, TheSocketFileDecidesWhoConnectsAndAsksNoProof) {
     }
 }
 
+// Found in the hour's soak: a daemon stopped after its socket file had been
+// removed and a new daemon had made its own at the same path (with the inode
+// number the removed one freed) took the new daemon's socket file with it.
+TEST(TauNetUnix, AStoppingServerLeavesAnotherServersSocketAlone) {
+    test::TempDir dir("taunet-unix");
+    const std::string path = (dir / "taunet.sock").string();
+    tau::TauNetOptions o;
+    o.listenAddress.clear();
+    o.unixSocketPath = path;
+    auto first = std::make_unique<Daemon>(o);
+    struct stat before {};
+    ASSERT_EQ(::lstat(path.c_str(), &before), 0);
+    ASSERT_EQ(::unlink(path.c_str()), 0);  // an operator clears the way for a new daemon
+    Daemon second(o);
+    struct stat after {};
+    ASSERT_EQ(::lstat(path.c_str(), &after), 0);
+    first.reset();  // the old daemon stops only now
+    ASSERT_TRUE(std::filesystem::is_socket(path)) << "the old daemon removed the new one's socket (inode "
+                                                  << before.st_ino << ", then " << after.st_ino << ")";
+    tau::TauUnitOptions u;
+    u.unixSocket = path;
+    tau::TauUnit unit(u);
+    EXPECT_EQ(unit.status().backend, "simulation");
+}
+
 TEST(TauNetUnix, AStaleSocketIsReplacedAndAnythingElseInTheWayIsAnError) {
     test::TempDir dir("taunet-unix");
     const std::string path = (dir / "taunet.sock").string();

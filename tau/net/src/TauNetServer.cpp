@@ -164,6 +164,10 @@ public:
     /// The socket file made, to remove at the end only if it is still ours.
     dev_t socketDevice{0};
     ino_t socketInode{0};
+    /// The socket file's change time when it was made: an inode number is
+    /// reused as soon as a file is removed, so device and inode alone would
+    /// take another server's socket, made after ours was removed, for ours.
+    timespec socketChanged{};
     std::vector<std::thread> threads;
 
     mutable std::mutex mutex;  // guards the members below
@@ -757,6 +761,7 @@ void ServerCore::openUnixSocket() {
         }
         socketDevice = st.st_dev;
         socketInode = st.st_ino;
+        socketChanged = st.st_ctim;
         localAcceptor.listen(asio::socket_base::max_listen_connections);
     } catch (const boost::system::system_error& e) {
         throw IoError(where + e.code().message());
@@ -909,7 +914,8 @@ void ServerCore::wait() {
 void ServerCore::removeSocketFile() {
     if (socketInode == 0) return;
     struct stat st {};
-    if (::lstat(options.unixSocketPath.c_str(), &st) == 0 && st.st_dev == socketDevice && st.st_ino == socketInode)
+    if (::lstat(options.unixSocketPath.c_str(), &st) == 0 && st.st_dev == socketDevice && st.st_ino == socketInode &&
+        st.st_ctim.tv_sec == socketChanged.tv_sec && st.st_ctim.tv_nsec == socketChanged.tv_nsec)
         ::unlink(options.unixSocketPath.c_str());
     socketInode = 0;
 }
