@@ -16,7 +16,19 @@
 #include <chrono>
 #include <set>
 
+#include <time.h>
+
 namespace avatar {
+namespace {
+
+/// The calling thread's CPU time, ms.
+double threadCpuMs() {
+    timespec t{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+}  // namespace
 
 /// The right image's share of each stage runs on one long-lived thread.
 class AnalyzeStereoImagePair::Worker : public detail::WorkerThread {};
@@ -81,35 +93,43 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     // fork and join for the batch, not one per stage), then every
     // processPair(). A stage's time is its preparation, its left image's work
     // (the right's too when serial), its pair work, and for the batch's last
-    // stage with image work the wait for the right image.
+    // stage with image work the wait for the right image. Its CPU time is
+    // that of both threads for it.
     const auto ms = [](Clock::time_point from) {
         return std::chrono::duration<double, std::milli>(Clock::now() - from).count();
     };
+    std::vector<StageTiming> cpu;
+    const double cpuStart = threadCpuMs();
+    double rightTotal = 0.0;  // the worker thread's CPU time
     for (std::size_t i = 0; i < stages_.size();) {
         std::size_t end = i + 1;
         if (stages_[i]->independentSides())
             while (end < stages_.size() && stages_[end]->independentSides()) ++end;
-        std::vector<double> spent(end - i, 0.0);
+        std::vector<double> spent(end - i, 0.0), cpuSpent(end - i, 0.0), rightCpu(end - i, 0.0);
         std::size_t lastImageWork = end;
         for (std::size_t k = i; k < end; ++k) {
             const auto t0 = Clock::now();
+            const double c0 = threadCpuMs();
             stages_[k]->prepare(frame);
             spent[k - i] += ms(t0);
+            cpuSpent[k - i] += threadCpuMs() - c0;
             if (stages_[k]->hasImageWork()) lastImageWork = k;
         }
         if (lastImageWork != end) {
-            const auto sideWork = [&](Side side, std::vector<double>* times) {
+            const auto sideWork = [&](Side side, std::vector<double>* times, std::vector<double>& cpuTimes) {
                 for (std::size_t k = i; k < end; ++k) {
                     if (!stages_[k]->hasImageWork()) continue;
                     const auto t0 = Clock::now();
+                    const double c0 = threadCpuMs();
                     stages_[k]->processImage(frame, side);
+                    cpuTimes[k - i] += threadCpuMs() - c0;
                     if (times != nullptr) (*times)[k - i] += ms(t0);
                 }
             };
             if (parallel_) {
-                auto right = worker_->submit([&] { sideWork(Side::Right, nullptr); });
+                auto right = worker_->submit([&] { sideWork(Side::Right, nullptr, rightCpu); });
                 try {
-                    sideWork(Side::Left, &spent);
+                    sideWork(Side::Left, &spent, cpuSpent);
                 } catch (...) {
                     right.wait();  // never leave the worker writing into a dead frame
                     throw;
@@ -118,18 +138,24 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
                 right.get();
                 spent[lastImageWork - i] += ms(waited);
             } else {
-                sideWork(Side::Left, &spent);
-                sideWork(Side::Right, &spent);
+                sideWork(Side::Left, &spent, cpuSpent);
+                sideWork(Side::Right, &spent, cpuSpent);
             }
         }
         for (std::size_t k = i; k < end; ++k) {
             const auto t0 = Clock::now();
+            const double c0 = threadCpuMs();
             stages_[k]->processPair(frame);
             spent[k - i] += ms(t0);
+            cpuSpent[k - i] += threadCpuMs() - c0;
             frame.result.timings.push_back({std::string(stages_[k]->name()), spent[k - i]});
+            cpu.push_back({std::string(stages_[k]->name()), cpuSpent[k - i] + rightCpu[k - i]});
+            rightTotal += rightCpu[k - i];
         }
         i = end;
     }
+    cpu.push_back({"total", threadCpuMs() - cpuStart + rightTotal});
+    cpuTimings_ = std::move(cpu);
     frame.result.timings.push_back(
         {"total", std::chrono::duration<double, std::milli>(Clock::now() - start).count()});
     frame_ = std::move(frame);

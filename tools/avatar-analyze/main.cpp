@@ -8,15 +8,18 @@
 #include <avatar/tau/ReplayAnalysis.h>
 
 #include <boost/program_options.hpp>
+#include <nlohmann/json.hpp>
 
-#include <cstdio>
-#include <iostream>
-#include <map>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace po = boost::program_options;
 using namespace avatar;
@@ -53,6 +56,54 @@ void printTargets(const VisionTargets& r) {
     std::printf("\n");
 }
 
+/// Wall and CPU milliseconds of every analysis, per stage ("total" too), for --timings.
+class TimingLog {
+public:
+    void add(const VisionTargets& result, const std::vector<StageTiming>& cpu) {
+        for (const StageTiming& t : result.timings) entry(t.stage).wall.push_back(t.milliseconds);
+        for (const StageTiming& t : cpu) entry(t.stage).cpu.push_back(t.milliseconds);
+    }
+    void pair() { ++pairs_; }
+
+    /// {"pairs": n, "total": {...}, "stages": {name: {"wall_ms_median", "cpu_ms_median"}}}
+    nlohmann::json json() const {
+        nlohmann::json stages = nlohmann::json::object();
+        nlohmann::json total;
+        for (const auto& [name, e] : entries_) {
+            const nlohmann::json j = {{"wall_ms_median", median(e.wall)}, {"cpu_ms_median", median(e.cpu)}};
+            if (name == "total") total = j;
+            else stages[name] = j;
+        }
+        return {{"pairs", pairs_}, {"total", total}, {"stages", stages}};
+    }
+
+private:
+    struct Entry {
+        std::vector<double> wall, cpu;
+    };
+    Entry& entry(const std::string& name) {
+        for (auto& [n, e] : entries_)
+            if (n == name) return e;
+        entries_.emplace_back(name, Entry{});
+        return entries_.back().second;
+    }
+    static nlohmann::json median(std::vector<double> v) {
+        if (v.empty()) return nullptr;
+        std::sort(v.begin(), v.end());
+        const std::size_t n = v.size();
+        return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    }
+    std::vector<std::pair<std::string, Entry>> entries_;  ///< in the order of the timings
+    std::size_t pairs_{0};
+};
+
+/// Equal but for the timings, which measure each run.
+bool sameResult(VisionTargets a, VisionTargets b) {
+    a.timings.clear();
+    b.timings.clear();
+    return a == b;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -63,6 +114,8 @@ int main(int argc, char** argv) {
         ("config,c", po::value<std::string>(), "use this configuration instead of the recorded one")
         ("iterations,n", po::value<int>()->default_value(0), "analyse at most this many iterations (0: all)")
         ("marked", po::value<std::string>(), "write the marked images of each iteration into this directory")
+        ("repeat", po::value<int>()->default_value(1), "analyse each pair this many times (to time the configuration)")
+        ("timings", po::value<std::string>(), "write the medians of every stage's wall and CPU time here (JSON)")
         ("log", po::value<std::string>()->default_value("warn"), "log priority: debug, info, notice, warn, error");
     po::variables_map vm;
     try {
@@ -76,7 +129,13 @@ int main(int argc, char** argv) {
         std::cout << options;
         return vm.count("help") ? 0 : 2;
     }
+    const int repeat = vm["repeat"].as<int>();
+    if (repeat < 1) {
+        std::cerr << "avatar-analyze: --repeat must be at least 1, got " << repeat << "\n";
+        return 2;
+    }
     int failures = 0;
+    TimingLog timings;
     try {
         logging::configure(logging::parsePriority(vm["log"].as<std::string>()));
         std::optional<AvatarConfig> fixed;
@@ -102,6 +161,17 @@ int main(int argc, char** argv) {
                 continue;
             }
             printTargets(*step.result);
+            timings.pair();
+            timings.add(*step.result, replay.analyzer()->lastCpuTimings());
+            for (int k = 1; k < repeat; ++k) {
+                const VisionTargets again = replay.analyzeAgain(step);
+                timings.add(again, replay.analyzer()->lastCpuTimings());
+                if (!sameResult(again, *step.result)) {
+                    std::cerr << "avatar-analyze: iteration " << step.iteration() << ": run " << k + 1
+                              << " gave another result than the first\n";
+                    ++failures;
+                }
+            }
             if (vm.count("marked")) {
                 const std::filesystem::path out = vm["marked"].as<std::string>();
                 std::filesystem::create_directories(out);
@@ -111,6 +181,13 @@ int main(int argc, char** argv) {
                 StereoImagePairFileIO::writeDisplay(out / (stem + "_L.jpg"), marked.left(), layout);
                 StereoImagePairFileIO::writeDisplay(out / (stem + "_R.jpg"), marked.right(), layout);
             }
+        }
+        if (vm.count("timings")) {
+            const std::string path = vm["timings"].as<std::string>();
+            std::ofstream out(path, std::ios::trunc);
+            out << timings.json().dump(2) << "\n";
+            out.close();
+            if (!out) throw IoError("cannot write the timings file " + path);
         }
     } catch (const Error& e) {
         std::cerr << "avatar-analyze: " << e.what() << "\n";

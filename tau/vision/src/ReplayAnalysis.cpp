@@ -55,4 +55,11 @@ ReplayStep ReplayAnalysis::next() {
     return step;
 }
 
+VisionTargets ReplayAnalysis::analyzeAgain(const ReplayStep& step) {
+    if (!step.result || !analyzer_)
+        throw InvalidState("analyzeAgain: the step has no result to repeat (" +
+                           (step.damaged() ? step.damage : step.failure) + ")");
+    return analyzer_->analyze(step.acquired->pair, step.iteration());
+}
+
 }  // namespace avatar

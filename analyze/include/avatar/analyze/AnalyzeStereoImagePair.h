@@ -58,6 +58,11 @@ public:
 
     const std::vector<std::string>& stageNames() const { return names_; }
 
+    /// The CPU time of each stage in the last analyze() (both threads'), in
+    /// the order of VisionTargets::timings and with its "total": what the
+    /// wall times of those timings cost the machine.
+    const std::vector<StageTiming>& lastCpuTimings() const { return cpuTimings_; }
+
 private:
     class Worker;
     AvatarConfig config_;
@@ -65,6 +70,7 @@ private:
     std::vector<std::string> names_;
     std::unique_ptr<Worker> worker_;
     AnalysisFrame frame_;
+    std::vector<StageTiming> cpuTimings_;
     bool parallel_{true};
 };
 

@@ -60,6 +60,11 @@ public:
     /// an unusable configuration or a failed analysis: the step says which.
     ReplayStep next();
 
+    /// Analyses the pair of @p step, the last step next() returned, once more
+    /// with the same analysis (to time it: `avatar-analyze --repeat`). Throws
+    /// avatar::InvalidState when that step has no result.
+    VisionTargets analyzeAgain(const ReplayStep& step);
+
     /// Runs both images of each stage on the calling thread (AnalyzeStereoImagePair::setParallel).
     void setParallel(bool parallel);
 
