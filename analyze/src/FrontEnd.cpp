@@ -4,6 +4,7 @@
 #include "KernelClones.h"
 
 #include <avatar/common/Error.h>
+#include <avatar/common/ImageUtils.h>
 
 #include <opencv2/core.hpp>
 
@@ -106,17 +107,6 @@ void emitBlocks(const float* const sums[3], S* out, int blocks) {
         }
 }
 
-/// The colour of the Bayer site (x, y): 0 blue, 1 green, 2 red.
-int siteColour(BayerPattern pattern, int x, int y) {
-    static constexpr int kSites[4][4] = {
-        {0, 1, 1, 2},  // BG: B G / G R
-        {1, 0, 2, 1},  // GB: G B / R G
-        {2, 1, 1, 0},  // RG: R G / G B
-        {1, 2, 0, 1},  // GR: G R / B G
-    };
-    return kSites[static_cast<int>(pattern)][(y & 1) * 2 + (x & 1)];
-}
-
 /// @p image itself when it has @p size and @p type, else a new buffer.
 void prepareImage(cv::Mat& image, cv::Size size, int type) {
     if (image.type() != type || image.size() != size || !image.isContinuous()) image = cv::Mat(size, type);
@@ -142,11 +132,11 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     std::vector<float> ownColumn(2 * n), greenColumn(2 * n);
     int ownColour[2], otherColour[2];
     for (int parity = 0; parity < 2; ++parity) {
-        const int even = siteColour(in.pattern, 0, parity), odd = siteColour(in.pattern, 1, parity);
+        const int even = bayerSiteColour(in.pattern, 0, parity), odd = bayerSiteColour(in.pattern, 1, parity);
         ownColour[parity] = even == 1 ? odd : even;
         otherColour[parity] = 2 - ownColour[parity];
         for (int x = 0; x < w; ++x) {
-            const bool isOwn = siteColour(in.pattern, x, parity) != 1;
+            const bool isOwn = bayerSiteColour(in.pattern, x, parity) != 1;
             ownColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 1.0f : 0.0f;
             greenColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 0.0f : 1.0f;
         }
@@ -226,20 +216,6 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
 }
 
 }  // namespace
-
-cv::Mat mosaicFactors(const cv::Mat& factorsBgr, BayerPattern pattern) {
-    if (factorsBgr.type() != CV_32FC3)
-        throw InvalidArgument("front end: the lighting factors must be CV_32FC3, got " +
-                              cv::typeToString(factorsBgr.type()));
-    cv::Mat out(factorsBgr.size(), CV_32FC1);
-    for (int y = 0; y < out.rows; ++y) {
-        const cv::Vec3f* in = factorsBgr.ptr<cv::Vec3f>(y);
-        float* o = out.ptr<float>(y);
-        const int even = siteColour(pattern, 0, y), odd = siteColour(pattern, 1, y);
-        for (int x = 0; x < out.cols; ++x) o[x] = in[x][(x & 1) != 0 ? odd : even];
-    }
-    return out;
-}
 
 bool frontEndHandles(const cv::Mat& mosaic) {
     return mosaic.channels() == 1 && (mosaic.depth() == CV_8U || mosaic.depth() == CV_16U) && mosaic.cols >= 4 &&

@@ -36,7 +36,7 @@ struct FrontEndInput {
     int bitDepth{16};         ///< significant bits (full scale 2^bitDepth - 1)
     bool endianSwap{false};   ///< swap the bytes of 16-bit samples first
     /// The lighting factor of every mosaic site, its colour's (CV_32FC1 of the
-    /// image's size, mosaicFactors()); null: no correction.
+    /// image's size, LightingCorrector::mosaicFactors()); null: no correction.
     const cv::Mat* factors{nullptr};
     /// The colour tests, compiled for this size and depth; null: no filter.
     const std::vector<ColorTest>* tests{nullptr};
@@ -51,10 +51,6 @@ struct FrontEndResult {
     std::vector<cv::Mat> masks;     ///< one per test, CV_8UC1 0/255
     std::optional<VisibilityMeasures> visibility;
 };
-
-/// The factor of each site of a @p pattern mosaic: the channel of its colour
-/// of LightingCorrector::factors() (CV_32FC3, BGR).
-cv::Mat mosaicFactors(const cv::Mat& factorsBgr, BayerPattern pattern);
 
 /// Whether the fused pass takes this mosaic: 8 or 16-bit, one channel, at
 /// least 4x4 pixels (smaller images go through the stages one by one).

@@ -1,14 +1,19 @@
 #include <avatar/analyze/LightingCorrection.h>
 
 #include <avatar/common/Error.h>
+#include <avatar/common/ImageUtils.h>
 #include <avatar/common/Logging.h>
 #include <avatar/config/ConfigXml.h>
+
+#include "LightingFactors.h"
 
 #include <log4cpp/Category.hh>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cstring>
+#include <vector>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -20,10 +25,7 @@ namespace {
 
 log4cpp::Category& logger() { return logging::category("analyze"); }
 
-/// Factors are clamped to this, so a steep falloff cannot produce inf (and
-/// inf * 0 = NaN) in the float image; any factor above 2^16 already saturates
-/// every non-zero sample.
-constexpr float kMaxFactor = 131072.0f;
+using detail::kMaxFactor;
 
 std::string sizeText(cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
 
@@ -91,47 +93,75 @@ LightingCorrector::LightingCorrector(const LightingConfig& config, const std::fi
 
 bool LightingCorrector::enabled() const { return config_.frameAverageEnabled || config_.patternEnabled; }
 
-void LightingCorrector::prepare(cv::Size size) {
-    if (!factors_.empty() && factors_.size() == size) return;
+cv::Mat LightingCorrector::buildFactors(cv::Size size, const BayerPattern* pattern) const {
     if (size.width <= 0 || size.height <= 0)
         throw InvalidArgument("LightingCorrector::prepare: empty image size " + sizeText(size));
     if (!template_.empty() && template_.size() != size)
         throw FormatError("LightingCorrector: lighting template image '" + templatePath_.string() + "' is " +
                           sizeText(template_.size()) + " but the images are " + sizeText(size));
-
-    // Gains in B, G, R order, matching the image's channels.
+    // Per channel (B, G, R, the image's order): exponent and gain * coefficient.
     std::array<double, 3> gain{1.0, 1.0, 1.0};
     if (config_.frameAverageEnabled) gain = {config_.gainsRgb[2], config_.gainsRgb[1], config_.gainsRgb[0]};
     const bool analytic = config_.patternEnabled && template_.empty();
+    const bool templated = config_.patternEnabled && !template_.empty();
     const std::array<const FalloffChannel*, 3> falloff{&config_.blue, &config_.green, &config_.red};
-    const double ox = config_.patternCentrePx[0];
-    const double oy = config_.patternCentrePx[1];
-
-    cv::Mat factors(size, CV_32FC3);
-    for (int y = 0; y < size.height; ++y) {
-        auto* out = factors.ptr<cv::Vec3f>(y);
-        const cv::Vec3f* tmpl = template_.empty() ? nullptr : template_.ptr<cv::Vec3f>(y);
-        for (int x = 0; x < size.width; ++x) {
-            const double d = std::hypot(x - ox, y - oy);
-            for (int k = 0; k < 3; ++k) {
-                double f = gain[k];
-                if (analytic) f *= falloff[k]->coefficient * std::exp(falloff[k]->exponent * d);
-                if (tmpl != nullptr && config_.patternEnabled) f *= tmpl[x][k];
-                if (std::isnan(f)) f = 0.0;  // 0 * inf: a zero gain or coefficient wins
-                out[x][k] = static_cast<float>(std::min(f, static_cast<double>(kMaxFactor)));
-            }
+    std::array<double, 3> exponent{}, multiplier{};
+    for (int k = 0; k < 3; ++k) {
+        exponent[static_cast<std::size_t>(k)] = analytic ? falloff[static_cast<std::size_t>(k)]->exponent : 0.0;
+        multiplier[static_cast<std::size_t>(k)] =
+            gain[static_cast<std::size_t>(k)] * (analytic ? falloff[static_cast<std::size_t>(k)]->coefficient : 1.0);
+    }
+    // Elements per row: three per pixel (B, G, R), or one per mosaic site of its
+    // colour; the channel of each depends on the row's parity only.
+    const int perPixel = pattern == nullptr ? 3 : 1;
+    const auto n = static_cast<std::size_t>(size.width * perPixel);
+    std::vector<double> xs(n), t(n, 1.0);
+    std::array<std::vector<double>, 2> e{std::vector<double>(n), std::vector<double>(n)}, m = e;
+    for (std::size_t i = 0; i < n; ++i) {
+        const int x = static_cast<int>(i) / perPixel;
+        xs[i] = x;
+        for (int parity = 0; parity < 2; ++parity) {
+            const int k = pattern == nullptr ? static_cast<int>(i % 3) : bayerSiteColour(*pattern, x, parity);
+            e[static_cast<std::size_t>(parity)][i] = exponent[static_cast<std::size_t>(k)];
+            m[static_cast<std::size_t>(parity)][i] = multiplier[static_cast<std::size_t>(k)];
         }
     }
-    factors_ = factors;
-
+    cv::Mat out(size, pattern == nullptr ? CV_32FC3 : CV_32FC1);
+    const double ox = config_.patternCentrePx[0], oy = config_.patternCentrePx[1];
+    for (int y = 0; y < size.height; ++y) {
+        const auto parity = static_cast<std::size_t>(y & 1);
+        if (templated) {
+            const cv::Vec3f* row = template_.ptr<cv::Vec3f>(y);
+            for (std::size_t i = 0; i < n; ++i) {
+                const int x = static_cast<int>(i) / perPixel;
+                const int k = pattern == nullptr ? static_cast<int>(i % 3) : bayerSiteColour(*pattern, x, y);
+                t[i] = row[x][k];
+            }
+        }
+        const double dy = y - oy;
+        detail::lightingFactorRow(xs.data(), e[parity].data(), m[parity].data(), t.data(), dy * dy, ox, out.ptr<float>(y),
+                  static_cast<int>(n));
+    }
     double lo = 0.0, hi = 0.0;
-    cv::minMaxLoc(factors_.reshape(1), &lo, &hi);
-    logger().infoStream() << "lighting factors for " << sizeText(size) << ": gains (B,G,R) " << gain[0] << ", "
-                          << gain[1] << ", " << gain[2] << "; pattern "
+    cv::minMaxLoc(out.reshape(1), &lo, &hi);
+    logger().infoStream() << "lighting factors for " << sizeText(size) << (pattern != nullptr ? " (mosaic)" : "")
+                          << ": gains (B,G,R) " << gain[0] << ", " << gain[1] << ", " << gain[2] << "; pattern "
                           << (!config_.patternEnabled ? std::string("off")
                               : analytic ? std::string("c*exp(e*d)")
                                          : "template '" + templatePath_.string() + "'")
                           << "; factors " << lo << " .. " << hi;
+    return out;
+}
+
+void LightingCorrector::prepare(cv::Size size) {
+    if (!factors_.empty() && factors_.size() == size) return;
+    factors_ = buildFactors(size, nullptr);
+}
+
+void LightingCorrector::prepareMosaic(cv::Size size, BayerPattern pattern) {
+    if (!mosaicFactors_.empty() && mosaicFactors_.size() == size && mosaicPattern_ == pattern) return;
+    mosaicFactors_ = buildFactors(size, &pattern);
+    mosaicPattern_ = pattern;
 }
 
 void LightingCorrector::apply(cv::Mat& bgr, int bitDepth) const {

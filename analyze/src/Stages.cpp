@@ -90,9 +90,6 @@ private:
     ColorFilterStage* filter_{nullptr};
     VisibilityStage* visibility_{nullptr};
     // Built in prepare() for the frame's geometry, read by both sides.
-    cv::Mat factors_;    ///< the lighting factor of each mosaic site
-    cv::Mat factorsOf_;  ///< the corrector's factor image factors_ were taken from
-    BayerPattern factorsPattern_{BayerPattern::BG};
     std::vector<detail::ColorTest> tests_;
     cv::Size testsSize_;
     int testsDepth_{-1}, testsBits_{-1};
@@ -109,7 +106,8 @@ public:
     std::string_view name() const override { return "lighting"; }
     bool hasImageWork() const override { return corrector_.enabled() && !covered_; }
     void prepare(AnalysisFrame& frame) override {
-        if (corrector_.enabled()) corrector_.prepare(frame.original.size());
+        // Covered: the front end prepares what it needs (the factors of the mosaic's sites).
+        if (corrector_.enabled() && !covered_) corrector_.prepare(frame.original.size());
     }
     void processImage(AnalysisFrame& frame, Side side) override { work(frame, side); }
 
@@ -289,16 +287,14 @@ void DemosaicStage::demosaicOnly(AnalysisFrame& frame, Side side) const {
 }
 
 void DemosaicStage::prepare(AnalysisFrame& frame) {
-    if (!fusedFor(frame)) return;
+    if (!fusedFor(frame)) {
+        // The stages one by one: the corrector works on the demosaiced image.
+        if (lighting_ != nullptr && lighting_->corrector().enabled()) lighting_->corrector().prepare(frame.original.size());
+        return;
+    }
     const cv::Size size = frame.original.size();
     if (lighting_ != nullptr && lighting_->corrector().enabled()) {
-        LightingCorrector& corrector = lighting_->corrector();
-        corrector.prepare(size);  // once per size
-        if (corrector.factors().data != factorsOf_.data || frame.layout.bayerPattern != factorsPattern_) {
-            factors_ = detail::mosaicFactors(corrector.factors(), frame.layout.bayerPattern);
-            factorsOf_ = corrector.factors();
-            factorsPattern_ = frame.layout.bayerPattern;
-        }
+        lighting_->corrector().prepareMosaic(size, frame.layout.bayerPattern);  // once per size and pattern
     }
     const int depth = frame.original.image(Side::Left).depth();
     if (filter_ != nullptr && (size != testsSize_ || depth != testsDepth_ || frame.layout.bitDepth != testsBits_)) {
@@ -326,7 +322,8 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     in.pattern = frame.layout.bayerPattern;
     in.bitDepth = frame.layout.bitDepth;
     in.endianSwap = swap_;
-    in.factors = lighting_ != nullptr && lighting_->corrector().enabled() ? &factors_ : nullptr;
+    in.factors = lighting_ != nullptr && lighting_->corrector().enabled() ? &lighting_->corrector().mosaicFactors()
+                                                                           : nullptr;
     in.tests = filter_ != nullptr ? &tests_ : nullptr;
     in.visibility = visibility_ != nullptr;
     detail::FrontEndResult out;

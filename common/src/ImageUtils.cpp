@@ -24,6 +24,16 @@ int cvBayerCode(BayerPattern pattern, DemosaicMethod method) {
 
 }  // namespace
 
+int bayerSiteColour(BayerPattern pattern, int x, int y) {
+    static constexpr int kSites[4][4] = {
+        {0, 1, 1, 2},  // BG: B G / G R
+        {1, 0, 2, 1},  // GB: G B / R G
+        {2, 1, 1, 0},  // RG: R G / G B
+        {1, 2, 0, 1},  // GR: G R / B G
+    };
+    return kSites[static_cast<int>(pattern)][(y & 1) * 2 + (x & 1)];
+}
+
 void swapEndian16(cv::Mat& image) {
     if (image.depth() != CV_16U)
         throw InvalidArgument("swapEndian16: image must have 16-bit samples");

@@ -137,8 +137,8 @@ void checkCase(const Case& c, std::uint64_t seed) {
     cv::Mat factors;
     cv::Mat corrected = mosaic.clone();
     if (c.lighting) {
-        corrector.prepare(c.size);
-        factors = detail::mosaicFactors(corrector.factors(), c.pattern);
+        corrector.prepareMosaic(c.size, c.pattern);
+        factors = corrector.mosaicFactors();
         const float full = static_cast<float>((1 << c.bitDepth) - 1);
         for (int y = 0; y < c.size.height; ++y)
             for (int x = 0; x < c.size.width; ++x) {
@@ -225,22 +225,26 @@ TEST(FrontEnd, WithoutFilterOrVisibility) {
     EXPECT_FALSE(out.visibility.has_value());
 }
 
-// Each site takes the factor of its own colour (BayerPattern names the first
-// row's two sites: BG = blue, green / green, red).
-TEST(FrontEnd, MosaicFactorsAreEachSitesColours) {
-    cv::Mat bgr(2, 2, CV_32FC3);
-    for (int y = 0; y < 2; ++y)
-        for (int x = 0; x < 2; ++x) bgr.at<cv::Vec3f>(y, x) = {10.0f + x + 2 * y, 20.0f + x + 2 * y, 30.0f + x + 2 * y};
-    const cv::Mat bg = detail::mosaicFactors(bgr, BayerPattern::BG);
-    EXPECT_EQ(bg.at<float>(0, 0), 10.0f);  // blue
-    EXPECT_EQ(bg.at<float>(0, 1), 21.0f);  // green
-    EXPECT_EQ(bg.at<float>(1, 0), 22.0f);  // green
-    EXPECT_EQ(bg.at<float>(1, 1), 33.0f);  // red
-    const cv::Mat gr = detail::mosaicFactors(bgr, BayerPattern::GR);
-    EXPECT_EQ(gr.at<float>(0, 0), 20.0f);  // green
-    EXPECT_EQ(gr.at<float>(0, 1), 31.0f);  // red
-    EXPECT_EQ(gr.at<float>(1, 0), 12.0f);  // blue
-    EXPECT_EQ(gr.at<float>(1, 1), 23.0f);  // green
+// Each mosaic site takes the factor of its own colour, the very value of the
+// three-channel image's (BayerPattern names the first row's two sites: BG =
+// blue, green / green, red), for the analytic falloff and for a template.
+TEST(FrontEnd, MosaicFactorsAreEachSitesColoursFactors) {
+    const cv::Size size(37, 22);
+    LightingCorrector corrector(lightingConfig(size));
+    corrector.prepare(size);
+    for (const BayerPattern pattern : {BayerPattern::BG, BayerPattern::GB, BayerPattern::RG, BayerPattern::GR}) {
+        corrector.prepareMosaic(size, pattern);
+        const cv::Mat& sites = corrector.mosaicFactors();
+        ASSERT_EQ(sites.type(), CV_32FC1);
+        for (int y = 0; y < size.height; ++y)
+            for (int x = 0; x < size.width; ++x)
+                ASSERT_EQ(sites.at<float>(y, x), corrector.factors().at<cv::Vec3f>(y, x)[bayerSiteColour(pattern, x, y)])
+                    << toString(pattern) << " at " << x << "," << y;
+    }
+    EXPECT_EQ(bayerSiteColour(BayerPattern::BG, 0, 0), 0);
+    EXPECT_EQ(bayerSiteColour(BayerPattern::BG, 1, 1), 2);
+    EXPECT_EQ(bayerSiteColour(BayerPattern::GR, 1, 0), 2);
+    EXPECT_EQ(bayerSiteColour(BayerPattern::GR, 0, 1), 0);
 }
 
 TEST(FrontEnd, RefusesWhatItDoesNotHandle) {

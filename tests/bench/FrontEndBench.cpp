@@ -65,7 +65,8 @@ struct Input {
                 mosaic.at<std::uint16_t>(y, x) = cv::saturate_cast<std::uint16_t>(v + noise(rng));
             }
         lighting.prepare(size);
-        factors = detail::mosaicFactors(lighting.factors(), config.camera.bayerPattern);
+        lighting.prepareMosaic(size, config.camera.bayerPattern);
+        factors = lighting.mosaicFactors();
         for (const TargetType& t : config.targets.targets) tests.emplace_back(t, size, CV_16U, 16);
     }
 };

@@ -15,6 +15,7 @@
 /// objects near and far from the strobe's centre (Figure 3-3), so the factor
 /// is used as given: e > 0 brightens the periphery, e = 0 is a uniform gain c.
 
+#include <avatar/common/ImageFormat.h>
 #include <avatar/config/LightingConfig.h>
 
 #include <opencv2/core/mat.hpp>
@@ -47,7 +48,10 @@ public:
     /// same size return at once). Not thread-safe; call before apply() is
     /// used from several threads. A template image must have this size
     /// (avatar::FormatError naming the file and both sizes otherwise).
-    /// Factors are stored as float, clamped to [0, 2^17].
+    /// Factors are stored as float, clamped to [0, 2^17]. They are computed
+    /// with an exp of the library's own from IEEE additions and
+    /// multiplications only, so that they are the same bit for bit on every
+    /// machine (a recorded session replays identically anywhere), vectorised.
     void prepare(cv::Size size);
 
     /// Multiplies every channel of every pixel of a BGR image (8 or 16 bit) by
@@ -63,12 +67,24 @@ public:
     /// The factor image (CV_32FC3, BGR) of the last prepare().
     const cv::Mat& factors() const { return factors_; }
 
+    /// The factor of every site of a @p pattern mosaic of @p size, its
+    /// colour's (CV_32FC1), for a correction applied to the mosaic before the
+    /// demosaic (the fused front end); built once per size and pattern,
+    /// without the three-channel image. Not thread-safe, like prepare().
+    void prepareMosaic(cv::Size size, BayerPattern pattern);
+    const cv::Mat& mosaicFactors() const { return mosaicFactors_; }
+
 private:
+    /// Factors of every pixel and channel (@p pattern null) or of every mosaic site.
+    cv::Mat buildFactors(cv::Size size, const BayerPattern* pattern) const;
+
     LightingConfig config_;
     std::filesystem::path configDir_;
     std::filesystem::path templatePath_;  ///< resolved; empty: analytic falloff
     cv::Mat template_;                    ///< CV_32FC3, when templatePath_ is set
     cv::Mat factors_;
+    cv::Mat mosaicFactors_;
+    BayerPattern mosaicPattern_{BayerPattern::BG};
 };
 
 /// Per-channel frame-average gains of thesis Figure 3-2 from a raw image and

@@ -20,6 +20,11 @@ enum class DemosaicMethod {
     EdgeAware   ///< OpenCV's edge-aware interpolation; fewer fringes
 };
 
+/// The colour of the site (@p x, @p y) of a mosaic of @p pattern: 0 blue, 1
+/// green, 2 red (the channel index of a BGR image). BayerPattern names the
+/// first row's two sites: BG is blue, green / green, red.
+int bayerSiteColour(BayerPattern pattern, int x, int y);
+
 /// Converts a one-channel Bayer mosaic (8 or 16 bit) into a 3-channel BGR image
 /// of the same depth. Throws avatar::InvalidArgument for other input.
 cv::Mat demosaic(const cv::Mat& mosaic, BayerPattern pattern,
