@@ -13,6 +13,7 @@
 // the process, share its namespace. Only loopback addresses are ever used.
 
 #include <gtest/gtest.h>
+#include <opencv2/core/mat.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -148,6 +149,22 @@ inline bool udpPortBound(const std::string& address, int port) {
 /// One arv-fake-gv-camera-0.8 process serving @p serial on @p address (a
 /// loopback address). Killed (SIGKILL) by stop(), by the destructor, and by
 /// the kernel if the test process dies first (PR_SET_PDEATHSIG).
+/// Samples of a Mono8 frame of the fake camera at unit scale that break its
+/// test pattern, a ramp rising by one per pixel to the right and down (0 for
+/// a frame delivered whole; GenICamTest.cpp).
+inline int rampViolations(const cv::Mat& m) {
+    int bad = 0;
+    for (int y = 0; y + 1 < m.rows; ++y) {
+        const auto* row = m.ptr<unsigned char>(y);
+        const auto* below = m.ptr<unsigned char>(y + 1);
+        for (int x = 0; x + 1 < m.cols; ++x) {
+            if (row[x + 1] != (row[x] + 1) % 255) ++bad;
+            if (below[x] != row[x + 1]) ++bad;
+        }
+    }
+    return bad;
+}
+
 class FakeGvCamera {
 public:
     FakeGvCamera(std::string address, std::string serial, std::string logPath)

@@ -26,6 +26,7 @@ namespace avatar {
 namespace {
 
 using test::FakeGvCamera;
+using test::rampViolations;
 using test::messageOf;
 using test::TempDir;
 using Clock = std::chrono::steady_clock;
@@ -67,20 +68,6 @@ GenICamOptions fastOptions() {
     o.reconnectAttempts = 3;
     o.frameRateHz = 25.0;
     return o;
-}
-
-/// Number of samples that break the unit-scale ramp (see the file comment).
-int rampViolations(const cv::Mat& m) {
-    int bad = 0;
-    for (int y = 0; y + 1 < m.rows; ++y) {
-        const auto* row = m.ptr<unsigned char>(y);
-        const auto* below = m.ptr<unsigned char>(y + 1);
-        for (int x = 0; x + 1 < m.cols; ++x) {
-            if (row[x + 1] != (row[x] + 1) % 255) ++bad;
-            if (below[x] != row[x + 1]) ++bad;
-        }
-    }
-    return bad;
 }
 
 double elapsedMs(Clock::time_point since) {

@@ -54,6 +54,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 using test::FakeGvCamera;
+using test::rampViolations;
 using test::TempDir;
 
 /// The fake cameras run on a private loopback network (GenICamFakeCamera.h).
@@ -125,20 +126,6 @@ AvatarConfig fakeCameraConfig(const std::string& leftId, const std::string& righ
     }
     for (TargetType& t : c.targets.targets) t.window = SearchWindow{};
     return c;
-}
-
-/// Samples that break the fake camera's unit-scale Mono8 ramp (GenICamTest.cpp).
-int rampViolations(const cv::Mat& m) {
-    int bad = 0;
-    for (int y = 0; y + 1 < m.rows; ++y) {
-        const auto* row = m.ptr<unsigned char>(y);
-        const auto* below = m.ptr<unsigned char>(y + 1);
-        for (int x = 0; x + 1 < m.cols; ++x) {
-            if (row[x + 1] != (row[x] + 1) % 255) ++bad;
-            if (below[x] != row[x + 1]) ++bad;
-        }
-    }
-    return bad;
 }
 
 // ------------------------------------------------------------ fake cameras
