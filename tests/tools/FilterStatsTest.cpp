@@ -207,3 +207,58 @@ TEST(FilterStatsTool, TheIssuesCommandLineWritesTheTypeTheReportAndThePlots) {
               1);
     EXPECT_NE(slurp(err).find("beyond 12 significant bits (--bit-depth)"), std::string::npos) << slurp(err);
 }
+
+// Samples as picked points (the thesis's MATLAB tool: the user clicks points):
+// a point every few pixels of each sample, each with a radius, give a proposal
+// that separates the whole samples as well as the masks' did.
+TEST(FilterStatsTool, PickedPointsAreSamplesToo) {
+    test::TempDir dir("filterstats");
+    const Labelled l = renderLabelled("lab.xml", "sample", 3);
+    const fs::path image = dir / "lab_left.png";
+    StereoImagePairFileIO::writeLossless(image, l.image.bgr);
+    const auto pick = [&](const cv::Mat& mask, int every, const fs::path& file) {
+        std::ofstream out(file);
+        out << "# picked points\n";
+        int n = 0, k = 0;
+        for (int y = 0; y < mask.rows; y += 3)
+            for (int x = 0; x < mask.cols; x += 3)
+                if (mask.at<std::uint8_t>(y, x) != 0 && k++ % every == 0) {
+                    out << x << " " << y << "\n";
+                    ++n;
+                }
+        return n;
+    };
+    const fs::path t = dir / "target.txt", b = dir / "background.txt";
+    EXPECT_GT(pick(l.target, 4, t), 10);
+    EXPECT_GT(pick(l.background, 400, b), 100);
+    const std::string exe = AVATAR_FILTERSTATS_EXECUTABLE;
+    const std::string report = (dir / "REPORT.json").string();
+    ASSERT_EQ(run(exe + " --image " + image.string() + " --target-points " + t.string() + " --background-points " +
+                  b.string() + " --point-radius 1 --name duck --report " + report + " > /dev/null"),
+              0);
+    const nlohmann::json j = nlohmann::json::parse(slurp(report));
+    EXPECT_EQ(j["true_positive_rate"].get<double>(), 1.0);
+    EXPECT_EQ(j["false_positive_rate"].get<double>(), 0.0);
+    TargetType proposed;
+    proposed.name = "duck";
+    proposed.redGreen = {j["ranges"]["rg"][0].get<double>(), j["ranges"]["rg"][1].get<double>()};
+    proposed.redBlue = {j["ranges"]["rb"][0].get<double>(), j["ranges"]["rb"][1].get<double>()};
+    proposed.blueGreen = {j["ranges"]["bg"][0].get<double>(), j["ranges"]["bg"][1].get<double>()};
+    const filterstats::Rates whole = measured(l, proposed);  // on every pixel of the masks
+    EXPECT_GE(whole.truePositive, 0.99);
+    EXPECT_LE(whole.falsePositive, 0.001);
+
+    // A point off the image is named; mixing two kinds of sample is a usage error.
+    std::ofstream(dir / "off.txt") << "10 10\n5000 20\n";
+    const std::string err = (dir / "err.txt").string();
+    EXPECT_EQ(run(exe + " --image " + image.string() + " --target-points " + (dir / "off.txt").string() +
+                  " --background-points " + b.string() + " --name duck --report " + report + " 2> " + err),
+              1);
+    EXPECT_NE(slurp(err).find("point (5000, 20) lies outside the 1280x960 image"), std::string::npos) << slurp(err);
+    EXPECT_EQ(run(exe + " --image " + image.string() + " --target-points " + t.string() + " --target-polygon " +
+                  t.string() + " --background-points " + b.string() + " --name duck --report " + report + " 2> " + err),
+              2);
+    EXPECT_NE(slurp(err).find("give exactly one of --target-mask, --target-polygon and --target-points"),
+              std::string::npos)
+        << slurp(err);
+}

@@ -248,9 +248,13 @@ cv::Mat loadMask(const std::filesystem::path& path, cv::Size size) {
     return gray != 0;
 }
 
-cv::Mat polygonMask(const std::filesystem::path& path, cv::Size size) {
+namespace {
+
+/// The "x y" lines of @p path ('#' starts a comment, blank lines skipped);
+/// FormatError naming the file and line of anything else.
+std::vector<cv::Point> readPoints(const std::filesystem::path& path, const char* what) {
     std::ifstream in(path);
-    if (!in) throw IoError("polygon file " + path.string() + ": cannot be opened");
+    if (!in) throw IoError(std::string(what) + " " + path.string() + ": cannot be opened");
     std::vector<cv::Point> points;
     std::string line;
     int number = 0;
@@ -266,6 +270,29 @@ cv::Mat polygonMask(const std::filesystem::path& path, cv::Size size) {
             throw FormatError(path.string() + ":" + std::to_string(number) + ": expected 'x y', got '" + line + "'");
         points.emplace_back(cvRound(x), cvRound(y));
     }
+    return points;
+}
+
+}  // namespace
+
+cv::Mat pointsMask(const std::filesystem::path& path, cv::Size size, int radius) {
+    if (radius < 0) throw InvalidArgument("--point-radius must be >= 0, got " + std::to_string(radius));
+    const std::vector<cv::Point> points = readPoints(path, "point file");
+    if (points.empty()) throw FormatError("point file " + path.string() + " holds no point");
+    const cv::Rect image(0, 0, size.width, size.height);
+    cv::Mat mask = cv::Mat::zeros(size, CV_8UC1);
+    for (const cv::Point& p : points) {
+        if (!image.contains(p))
+            throw InvalidArgument("point file " + path.string() + ": point (" + std::to_string(p.x) + ", " +
+                                  std::to_string(p.y) + ") lies outside the " + std::to_string(size.width) + "x" +
+                                  std::to_string(size.height) + " image");
+        cv::circle(mask, p, radius, cv::Scalar(255), cv::FILLED);
+    }
+    return mask;
+}
+
+cv::Mat polygonMask(const std::filesystem::path& path, cv::Size size) {
+    const std::vector<cv::Point> points = readPoints(path, "polygon file");
     if (points.size() < 3)
         throw FormatError("polygon file " + path.string() + ": " + std::to_string(points.size()) +
                           " vertices; a polygon needs at least 3");

@@ -30,6 +30,10 @@ namespace avatar::filterstats {
 cv::Mat loadMask(const std::filesystem::path& path, cv::Size size);
 /// A polygon file (one "x y" vertex per line, '#' comments) filled into a mask of @p size.
 cv::Mat polygonMask(const std::filesystem::path& path, cv::Size size);
+/// A point file (one "x y" point per line, '#' comments: the thesis's picked
+/// points), each point with the pixels within @p radius of it, as a mask of
+/// @p size. A point outside the image is an InvalidArgument naming it.
+cv::Mat pointsMask(const std::filesystem::path& path, cv::Size size, int radius);
 
 struct Options {
     std::string name{"target"};

@@ -80,6 +80,9 @@ int main(int argc, char** argv) {
         ("background-mask", po::value<std::string>(), "8-bit image, non-zero = background sample")
         ("target-polygon", po::value<std::string>(), "instead of --target-mask: 'x y' vertices, one per line")
         ("background-polygon", po::value<std::string>(), "instead of --background-mask: 'x y' vertices")
+        ("target-points", po::value<std::string>(), "instead of --target-mask: picked points, 'x y' one per line")
+        ("background-points", po::value<std::string>(), "instead of --background-mask: picked points")
+        ("point-radius", po::value<int>()->default_value(0), "with --*-points: also take the pixels within this many px of each point")
         ("name", po::value<std::string>(), "the target type's name")
         ("out", po::value<std::string>(), "write the proposed <target> element here")
         ("merge-into", po::value<std::string>(), "also put it into this configuration (replacing a type of the same name)")
@@ -91,12 +94,15 @@ int main(int argc, char** argv) {
     return tools::runTool("avatar-filterstats", tools::HelpHint::Short, [&] {
         const po::variables_map vm = tools::parseCommandLine(argc, argv, options);
         if (vm.count("help")) return tools::printHelp(options, tools::kInputExitStatus);
-        const auto need = [&](const char* a, const char* b) { return vm.count(a) + vm.count(b) == 1; };
+        const auto need = [&](const char* a, const char* b, const char* c = "") {
+            return vm.count(a) + vm.count(b) + (*c != 0 ? vm.count(c) : 0) == 1;
+        };
         if (!need("image", "session")) throw tools::UsageError("give exactly one of --image and --session");
-        if (!need("target-mask", "target-polygon"))
-            throw tools::UsageError("give exactly one of --target-mask and --target-polygon");
-        if (!need("background-mask", "background-polygon"))
-            throw tools::UsageError("give exactly one of --background-mask and --background-polygon");
+        if (!need("target-mask", "target-polygon", "target-points"))
+            throw tools::UsageError("give exactly one of --target-mask, --target-polygon and --target-points");
+        if (!need("background-mask", "background-polygon", "background-points"))
+            throw tools::UsageError(
+                "give exactly one of --background-mask, --background-polygon and --background-points");
         if (!vm.count("name")) throw tools::UsageError("--name is required");
         if (!vm.count("out") && !vm.count("report") && !vm.count("merge-into"))
             throw tools::UsageError("nothing to write: give --out, --report or --merge-into");
@@ -108,12 +114,15 @@ int main(int argc, char** argv) {
             tools::correctLighting(image, readConfigFile(file), file.parent_path());
         }
         const cv::Size size = image.bgr.size();
-        const cv::Mat target = vm.count("target-mask")
-                                   ? filterstats::loadMask(vm["target-mask"].as<std::string>(), size)
-                                   : filterstats::polygonMask(vm["target-polygon"].as<std::string>(), size);
-        const cv::Mat background = vm.count("background-mask")
-                                       ? filterstats::loadMask(vm["background-mask"].as<std::string>(), size)
-                                       : filterstats::polygonMask(vm["background-polygon"].as<std::string>(), size);
+        const int radius = vm["point-radius"].as<int>();
+        const auto sample = [&](const std::string& which) {
+            if (vm.count(which + "-mask")) return filterstats::loadMask(vm[which + "-mask"].as<std::string>(), size);
+            if (vm.count(which + "-polygon"))
+                return filterstats::polygonMask(vm[which + "-polygon"].as<std::string>(), size);
+            return filterstats::pointsMask(vm[which + "-points"].as<std::string>(), size, radius);
+        };
+        const cv::Mat target = sample("target");
+        const cv::Mat background = sample("background");
         filterstats::Options o;
         o.name = vm["name"].as<std::string>();
         o.falsePositiveWeight = vm["fp-weight"].as<double>();
