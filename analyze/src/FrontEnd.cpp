@@ -7,6 +7,7 @@
 #include <avatar/common/ImageUtils.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/hal.hpp>
 
 #include <algorithm>
 #include <cstdint>
@@ -72,14 +73,23 @@ AVATAR_KERNEL_CLONES void demosaicRow(const float* __restrict m0, const float* _
     }
 }
 
+/// Float planes to sample planes (the values are exact integers in range).
 template <typename S>
-AVATAR_KERNEL_CLONES void storeRow(const float* __restrict b, const float* __restrict g, const float* __restrict r,
-                                   S* __restrict out, int n) {
-    for (int i = 0; i < n; ++i) {
-        out[3 * i] = static_cast<S>(static_cast<std::int32_t>(b[i]));
-        out[3 * i + 1] = static_cast<S>(static_cast<std::int32_t>(g[i]));
-        out[3 * i + 2] = static_cast<S>(static_cast<std::int32_t>(r[i]));
-    }
+AVATAR_KERNEL_CLONES void narrowRow(const float* __restrict in, S* __restrict out, int n) {
+    for (int i = 0; i < n; ++i) out[i] = static_cast<S>(static_cast<std::int32_t>(in[i]));
+}
+
+/// One row of the BGR image from its planes: narrowed here, interleaved by
+/// OpenCV's vectorised merge (a stride-3 store loop costs twice as much).
+template <typename S>
+void storeRow(const float* b, const float* g, const float* r, S* planes, S* out, int n) {
+    S* p[3] = {planes, planes + n, planes + 2 * n};
+    narrowRow(b, p[0], n);
+    narrowRow(g, p[1], n);
+    narrowRow(r, p[2], n);
+    const S* src[3] = {p[0], p[1], p[2]};
+    if constexpr (sizeof(S) == 1) cv::hal::merge8u(src, out, n, 3);
+    else cv::hal::merge16u(src, out, n, 3);
 }
 
 /// Pixels with any channel at or above full scale (measureVisibility's count).
@@ -94,17 +104,17 @@ AVATAR_KERNEL_CLONES void accumulate(const float* __restrict in, float* __restri
     for (int i = 0; i < n; ++i) sum[i] += in[i];
 }
 
-/// One row of the 4x4-block means from four rows' column sums, rounded to
-/// nearest with ties to even, as downsampleArea4() (cv::resize INTER_AREA).
+/// One channel of a row of the 4x4-block means from four rows' column sums,
+/// rounded to nearest with ties to even, as downsampleArea4() (cv::resize
+/// INTER_AREA), into every third sample of @p out (its channel's).
 template <typename S>
-void emitBlocks(const float* const sums[3], S* out, int blocks) {
-    for (int x = 0; x < blocks; ++x)
-        for (int c = 0; c < 3; ++c) {
-            const float* s = sums[c] + 4 * x;
-            const auto sum = static_cast<std::uint32_t>(static_cast<std::int32_t>((s[0] + s[1]) + (s[2] + s[3])));
-            const std::uint32_t q = sum >> 4, r = sum & 15u;
-            out[3 * x + c] = static_cast<S>(q + ((r > 8u) | ((r == 8u) & (q & 1u))));
-        }
+AVATAR_KERNEL_CLONES void blockMeans(const float* __restrict sums, S* __restrict out, int blocks) {
+    for (int x = 0; x < blocks; ++x) {
+        const float* s = sums + 4 * x;
+        const auto sum = static_cast<std::uint32_t>(static_cast<std::int32_t>((s[0] + s[1]) + (s[2] + s[3])));
+        const std::uint32_t q = sum >> 4, r = sum & 15u;
+        out[3 * x] = static_cast<S>(q + ((r > 8u) | ((r == 8u) & (q & 1u))));
+    }
 }
 
 /// @p image itself when it has @p size and @p type, else a new buffer.
@@ -142,6 +152,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
         }
     }
     std::vector<std::uint8_t> scratch(n);
+    std::vector<S> samplePlanes(3 * n);
 
     const float full = static_cast<float>((1 << in.bitDepth) - 1);
     const bool reduce = in.visibility && w % 4 == 0 && h % 4 == 0;
@@ -182,7 +193,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
         const float* b = planes[0];
         const float* g = planes[1];
         const float* r = planes[2];
-        storeRow(b, g, r, out.bgr.ptr<S>(y), w);
+        storeRow(b, g, r, samplePlanes.data(), out.bgr.ptr<S>(y), w);
 
         for (std::size_t t = 0; t < types; ++t) {
             const ColorTest& test = (*in.tests)[t];
@@ -202,7 +213,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
             if (reduce) {
                 for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], w);
                 if (y % 4 == 3) {
-                    emitBlocks<S>(sums, small.ptr<S>(y / 4), w / 4);
+                    for (int c = 0; c < 3; ++c) blockMeans<S>(sums[c], small.ptr<S>(y / 4) + c, w / 4);
                     for (float* s : sums) std::fill(s, s + w, 0.0f);
                 }
             }
