@@ -156,8 +156,8 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
 
     const float full = static_cast<float>((1 << in.bitDepth) - 1);
     const bool reduce = in.visibility && w % 4 == 0 && h % 4 == 0;
-    cv::Mat small;
-    if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));
+    cv::Mat& small = out.reduced;
+    if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));  // kept when it has that size
     std::int64_t saturated = 0;
 
     int loaded = -1;  // the last mosaic row loaded
@@ -220,7 +220,8 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
         }
     }
     if (in.visibility)
-        out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total())
+        out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total(),
+                                                        &out.visibilityScratch)
                                 : measureVisibility(out.bgr, in.bitDepth);
     else
         out.visibility.reset();

@@ -15,6 +15,7 @@
 // measureVisibility (tests/analyze/FrontEndTest.cpp checks each against them).
 
 #include "ColorFilterKernel.h"
+#include "ImageReduce.h"
 
 #include <avatar/analyze/ProcessStereoImagePair.h>
 #include <avatar/analyze/Visibility.h>
@@ -50,6 +51,10 @@ struct FrontEndResult {
     cv::Mat bgr;                    ///< the demosaiced (and corrected) image
     std::vector<cv::Mat> masks;     ///< one per test, CV_8UC1 0/255
     std::optional<VisibilityMeasures> visibility;
+    /// Scratch for the visibility's 4x4 reduction, kept by a caller that runs
+    /// the pass again on images of the same size (no allocation per frame).
+    cv::Mat reduced;
+    VisibilityScratch visibilityScratch;  ///< likewise
 };
 
 /// Whether the fused pass takes this mosaic: 8 or 16-bit, one channel, at

@@ -96,6 +96,8 @@ private:
     // Per side: buffers reused across frames.
     std::array<detail::BufferPool, 2> images_;
     std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
+    std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
+    std::array<detail::VisibilityScratch, 2> visibilityScratch_;
 };
 
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
@@ -327,6 +329,8 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     in.tests = filter_ != nullptr ? &tests_ : nullptr;
     in.visibility = visibility_ != nullptr;
     detail::FrontEndResult out;
+    out.reduced = std::move(reduced_[i]);
+    out.visibilityScratch = std::move(visibilityScratch_[i]);
     out.bgr = images_[i].get(mosaic.size(), CV_MAKETYPE(mosaic.depth(), 3));
     out.masks.resize(tests_.size());
     if (in.tests != nullptr)
@@ -336,6 +340,8 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     work.image = std::move(out.bgr);
     if (in.tests != nullptr) work.masks = std::move(out.masks);
     if (out.visibility) work.visibility = *out.visibility;
+    reduced_[i] = std::move(out.reduced);
+    visibilityScratch_[i] = std::move(out.visibilityScratch);
 }
 
 }  // namespace

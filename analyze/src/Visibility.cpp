@@ -9,18 +9,24 @@
 namespace avatar {
 
 VisibilityMeasures detail::visibilityFromReduced(const cv::Mat& small, int bitDepth, std::int64_t saturatedPixels,
-                                                std::size_t pixels) {
+                                                std::size_t pixels, VisibilityScratch* reuse) {
     const double full = static_cast<double>((1 << bitDepth) - 1);
-    cv::Mat scaled, channels[3], luma, minChannel;
-    small.convertTo(scaled, CV_32F, 1.0 / full);
-    cv::split(scaled, channels);
-    luma = 0.114f * channels[0] + 0.587f * channels[1] + 0.299f * channels[2];
+    VisibilityScratch local;
+    VisibilityScratch& s = reuse != nullptr ? *reuse : local;
+    cv::Mat* channels = s.channels.data();
+    small.convertTo(s.scaled, CV_32F, 1.0 / full);
+    cv::split(s.scaled, channels);
+    // 0.114 B + 0.587 G + 0.299 R and the minimum channel, written as the
+    // calls OpenCV's expressions make, into buffers kept from frame to frame.
+    cv::addWeighted(channels[0], 0.114f, channels[1], 0.587f, 0.0, s.luma);
+    cv::addWeighted(s.luma, 1.0, channels[2], 0.299f, 0.0, s.luma);
     cv::Scalar mean, stddev;
-    cv::meanStdDev(luma, mean, stddev);
+    cv::meanStdDev(s.luma, mean, stddev);
     VisibilityMeasures m;
     m.contrast = stddev[0];
-    minChannel = cv::min(cv::min(channels[0], channels[1]), channels[2]);
-    m.haze = cv::mean(minChannel)[0];
+    cv::min(channels[0], channels[1], s.minChannel);
+    cv::min(s.minChannel, channels[2], s.minChannel);
+    m.haze = cv::mean(s.minChannel)[0];
     m.saturatedFraction = static_cast<double>(saturatedPixels) / static_cast<double>(pixels);
     return m;
 }
