@@ -1,3 +1,4 @@
+#include <avatar/common/ImageUtils.h>
 #include <avatar/render/Renderer.h>
 
 #include "RayTracer.h"
@@ -215,17 +216,8 @@ CameraRender renderCamera(const World& world, const CameraRig& rig, const Render
     return out;
 }
 
-/// 0 = red, 1 = green, 2 = blue at (x, y) of a mosaic named by its first row.
-int bayerChannel(BayerPattern pattern, int x, int y) {
-    static const int table[4][4] = {
-        // (even x, even y), (odd x, even y), (even x, odd y), (odd x, odd y)
-        {2, 1, 1, 0},  // BG: B G / G R
-        {1, 2, 0, 1},  // GB: G B / R G
-        {0, 1, 1, 2},  // RG: R G / G B
-        {1, 0, 2, 1},  // GR: G R / B G
-    };
-    return table[static_cast<int>(pattern)][(x & 1) + 2 * (y & 1)];
-}
+/// The radiance channel (0 red, 1 green, 2 blue: RGB) of the mosaic site (x, y).
+int bayerChannel(BayerPattern pattern, int x, int y) { return 2 - bayerSiteColour(pattern, x, y); }
 
 /// Strobe falloff, the sensor response and noise: radiance -> digital numbers.
 cv::Mat digitize(const cv::Mat& radiance, const Scene& scene, const RenderOptions& options,

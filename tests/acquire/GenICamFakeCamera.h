@@ -12,6 +12,8 @@
 // has its own namespace, so its own port 3956); and the cameras, children of
 // the process, share its namespace. Only loopback addresses are ever used.
 
+#include "TempDir.h"
+
 #include <gtest/gtest.h>
 #include <opencv2/core/mat.hpp>
 
@@ -241,6 +243,28 @@ private:
     std::string serial_;
     std::string logPath_;
     pid_t pid_{-1};
+};
+
+/// A test with two fake cameras, GV01 on 127.0.0.1 and GV02 on 127.0.0.2, in
+/// the private loopback network (skipped, saying why, where there is none);
+/// their logs go into dir_.
+class FakeCameraPairTest : public ::testing::Test {
+protected:
+    explicit FakeCameraPairTest(const std::string& prefix) : dir_(prefix) {}
+    void SetUp() override {
+        if (const std::string& problem = privateLoopbackProblem(); !problem.empty())
+            GTEST_SKIP() << "no private loopback network: " << problem;
+        left_.start();
+        right_.start();
+    }
+    void TearDown() override {
+        left_.stop();
+        right_.stop();
+    }
+
+    TempDir dir_;
+    FakeGvCamera left_{"127.0.0.1", "GV01", (dir_.path() / "GV01.log").string()};
+    FakeGvCamera right_{"127.0.0.2", "GV02", (dir_.path() / "GV02.log").string()};
 };
 
 }  // namespace avatar::test

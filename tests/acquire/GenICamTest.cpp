@@ -74,24 +74,11 @@ double elapsedMs(Clock::time_point since) {
     return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
 }
 
-class GenICamTest : public ::testing::Test {
+class GenICamTest : public test::FakeCameraPairTest {
 protected:
-    void SetUp() override {
-        if (const std::string& problem = test::privateLoopbackProblem(); !problem.empty())
-            GTEST_SKIP() << "no private loopback network: " << problem;
-        left_.start();
-        right_.start();
-    }
-    void TearDown() override {
-        left_.stop();
-        right_.stop();
-    }
+    GenICamTest() : FakeCameraPairTest("avatar-genicam-test") {}
 
     AvatarConfig config() const { return configFor(left_.deviceId(), right_.deviceId()); }
-
-    TempDir dir_{"avatar-genicam-test"};
-    FakeGvCamera left_{"127.0.0.1", "GV01", (dir_.path() / "GV01.log").string()};
-    FakeGvCamera right_{"127.0.0.2", "GV02", (dir_.path() / "GV02.log").string()};
 };
 
 // ------------------------------------------------------------ pure checks (no cameras)

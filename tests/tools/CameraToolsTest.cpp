@@ -130,27 +130,15 @@ AvatarConfig fakeCameraConfig(const std::string& leftId, const std::string& righ
 
 // ------------------------------------------------------------ fake cameras
 
-class CameraToolsOnFakeCameras : public ::testing::Test {
+class CameraToolsOnFakeCameras : public test::FakeCameraPairTest {
 protected:
-    void SetUp() override {
-        if (const std::string& problem = test::privateLoopbackProblem(); !problem.empty())
-            GTEST_SKIP() << "no private loopback network: " << problem;
-        left_.start();
-        right_.start();
-    }
-    void TearDown() override {
-        left_.stop();
-        right_.stop();
-    }
+    CameraToolsOnFakeCameras() : FakeCameraPairTest("avatar-camera-tools") {}
     /// Writes @p c into the work directory and returns its path.
     fs::path writeConfig(const AvatarConfig& c, const std::string& name = "cameras.xml") {
         writeConfigFile(c, dir_ / name);
         return dir_ / name;
     }
 
-    TempDir dir_{"avatar-camera-tools"};
-    FakeGvCamera left_{"127.0.0.1", "GV01", (dir_.path() / "GV01.log").string()};
-    FakeGvCamera right_{"127.0.0.2", "GV02", (dir_.path() / "GV02.log").string()};
 };
 
 // ============================================================ avatar-camtest
