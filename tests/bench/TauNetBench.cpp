@@ -90,7 +90,7 @@ public:
         a.sin_port = htons(port);
         a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
         if (::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) throw std::runtime_error("connect");
-        const auto reply = request(tau::MessageType::Hello, tau::encode(tau::Hello{1, "bench"}));
+        const auto reply = request(tau::MessageType::Hello, tau::encode(tau::Hello{tau::kProtocolVersion, "bench"}));
         if (reply.header.type != tau::replyType(tau::MessageType::Hello)) throw std::runtime_error("HELLO refused");
     }
     ~Client() { ::close(fd_); }
