@@ -247,11 +247,15 @@ Feature makeFeature(const Accumulator& a, const cv::Rect& window) {
     Feature f;
     f.area = a.area;
     const double n = static_cast<double>(a.area);
-    f.centroid = {static_cast<double>(a.sumX) / n + ox, static_cast<double>(a.sumY) / n + oy};
+    // The sums moved to image coordinates exactly (integers) and divided once:
+    // a feature's centroid is the same whatever window it was found in (a
+    // type's window, a tracking frame's region, the whole image).
+    const std::int64_t area = a.area;
+    f.centroid = {static_cast<double>(a.sumX + area * ox) / n, static_cast<double>(a.sumY + area * oy) / n};
     if (a.sumW > 0) {
         const double w = static_cast<double>(a.sumW);
-        f.weightedCentroid = {static_cast<double>(a.sumWX) / w + ox,
-                              static_cast<double>(a.sumWY) / w + oy};
+        f.weightedCentroid = {static_cast<double>(a.sumWX + a.sumW * ox) / w,
+                              static_cast<double>(a.sumWY + a.sumW * oy) / w};
     } else {
         f.weightedCentroid = f.centroid;
     }
@@ -324,7 +328,7 @@ void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out) {
     }
     if (out.data == mask.data && !mask.empty())
         throw InvalidArgument("erodeRestore: the output must not share the mask's buffer");
-    if (out.type() != CV_8UC1 || out.size() != mask.size() || !out.isContinuous()) out.create(mask.size(), CV_8UC1);
+    if (out.type() != CV_8UC1 || out.size() != mask.size()) out.create(mask.size(), CV_8UC1);
     if (mask.empty()) return;
 
     // Reconstruction: label the mask, keep every component that has a pixel
