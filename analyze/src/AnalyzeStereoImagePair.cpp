@@ -1,6 +1,7 @@
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 
 #include "FrontEnd.h"
+#include "RegionTracker.h"
 
 #include <avatar/common/Error.h>
 #include <avatar/common/ImageUtils.h>
@@ -62,6 +63,7 @@ AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
     }
     detail::fuseFrontEnd(stages_);
     worker_ = std::make_unique<Worker>();
+    tracker_ = std::make_unique<detail::RegionTracker>(config_.analysis.tracking);
     logging::category("analyze").info("pipeline: %zu stages, %zu target types", stages_.size(),
                                       config_.targets.targets.size());
 }
@@ -87,6 +89,7 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     for (Side side : {Side::Left, Side::Right}) frame.at(side).image = pair.image(side);
     frame.result.iteration = iteration;
     frame.result.acquisition = pair.id();
+    tracker_->begin(frame);
 
     // Consecutive stages whose sides are independent run as one batch: every
     // prepare(), then each side's image work of all of them in one task (one
@@ -158,6 +161,7 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     cpuTimings_ = std::move(cpu);
     frame.result.timings.push_back(
         {"total", std::chrono::duration<double, std::milli>(Clock::now() - start).count()});
+    tracker_->end(frame);
     frame_ = std::move(frame);
     return frame_.result;
 }

@@ -4,6 +4,10 @@
 // frame (docs/benchmarks.md); a buffer from here is handed out again only
 // once nothing but the pool refers to it, so a frame a client still holds is
 // never written into (AnalyzeStereoImagePair::lastFrame()).
+//
+// A tracking frame writes only its search regions: getZeroedOutside() hands
+// out a buffer that is 0 everywhere else, clearing only what the buffer's
+// last user may have written (the pool remembers it), not the whole image.
 
 #include <opencv2/core/mat.hpp>
 
@@ -19,27 +23,50 @@ public:
     explicit BufferPool(std::size_t maxKept = 4) : maxKept_(maxKept) {}
 
     /// A continuous buffer of @p size and @p type that nothing else refers
-    /// to: a kept one that is free again, else a new one (kept when there is room).
-    cv::Mat get(cv::Size size, int type) {
-        for (const cv::Mat& m : kept_)
-            if (m.size() == size && m.type() == type && m.u != nullptr && m.u->refcount == 1) return m;
+    /// to: a kept one that is free again, else a new one (kept when there is
+    /// room). Its content is undefined; the caller writes all of it.
+    cv::Mat get(cv::Size size, int type) { return take(size, type, {cv::Rect(cv::Point(), size)}, false); }
+
+    /// The same, 0 outside @p regions (rectangles inside the image); the
+    /// caller writes inside them only. Inside them the content is undefined.
+    cv::Mat getZeroedOutside(cv::Size size, int type, const std::vector<cv::Rect>& regions) {
+        return take(size, type, regions, true);
+    }
+
+private:
+    struct Kept {
+        cv::Mat buffer;
+        std::vector<cv::Rect> written;  ///< where its last user may have left non-zero values
+    };
+
+    cv::Mat take(cv::Size size, int type, const std::vector<cv::Rect>& willWrite, bool zeroOutside) {
+        for (Kept& k : kept_)
+            if (k.buffer.size() == size && k.buffer.type() == type && k.buffer.u != nullptr &&
+                k.buffer.u->refcount == 1) {
+                if (zeroOutside)
+                    for (const cv::Rect& r : k.written) k.buffer(r).setTo(0);
+                k.written = willWrite;
+                return k.buffer;
+            }
         cv::Mat fresh(size, type);
+        if (zeroOutside) fresh.setTo(0);
+        Kept entry{fresh, willWrite};
         if (kept_.size() < maxKept_) {
-            kept_.push_back(fresh);
+            kept_.push_back(std::move(entry));
         } else {
             // Drop a kept buffer of another geometry that is free, if any, to make room.
-            for (cv::Mat& m : kept_)
-                if ((m.size() != size || m.type() != type) && m.u != nullptr && m.u->refcount == 1) {
-                    m = fresh;
+            for (Kept& k : kept_)
+                if ((k.buffer.size() != size || k.buffer.type() != type) && k.buffer.u != nullptr &&
+                    k.buffer.u->refcount == 1) {
+                    k = std::move(entry);
                     break;
                 }
         }
         return fresh;
     }
 
-private:
     std::size_t maxKept_;
-    std::vector<cv::Mat> kept_;
+    std::vector<Kept> kept_;
 };
 
 }  // namespace avatar::detail

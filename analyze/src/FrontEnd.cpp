@@ -117,9 +117,11 @@ AVATAR_KERNEL_CLONES void blockMeans(const float* __restrict sums, S* __restrict
     }
 }
 
-/// @p image itself when it has @p size and @p type, else a new buffer.
-void prepareImage(cv::Mat& image, cv::Size size, int type) {
-    if (image.type() != type || image.size() != size || !image.isContinuous()) image = cv::Mat(size, type);
+/// @p image itself when it has @p size and @p type (true), else a new buffer (false).
+bool prepareImage(cv::Mat& image, cv::Size size, int type) {
+    if (image.type() == type && image.size() == size && image.isContinuous()) return true;
+    image = cv::Mat(size, type);
+    return false;
 }
 
 template <typename S>
@@ -128,10 +130,12 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     const int w = mosaic.cols, h = mosaic.rows;
     const int depth = mosaic.depth();
     const std::size_t n = static_cast<std::size_t>(w);
-    prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3));
+    const bool regional = in.regions != nullptr && !in.regions->empty();
+    const bool bgrClear = prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3)) && out.bgrZeroOutsideRegions;
     const std::size_t types = in.tests != nullptr ? in.tests->size() : 0;
     out.masks.resize(types);
-    for (cv::Mat& mask : out.masks) prepareImage(mask, mosaic.size(), CV_8UC1);
+    bool masksClear = out.masksZeroOutsideRegions;
+    for (cv::Mat& mask : out.masks) masksClear = prepareImage(mask, mosaic.size(), CV_8UC1) && masksClear;
 
     // Rows: three of the (corrected) mosaic (a ring), the demosaiced planes, the
     // visibility's column sums; the per-column role of each row parity.
@@ -155,70 +159,112 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     std::vector<S> samplePlanes(3 * n);
 
     const float full = static_cast<float>((1 << in.bitDepth) - 1);
-    const bool reduce = in.visibility && w % 4 == 0 && h % 4 == 0;
+    const bool measure = in.visibility && !regional;
+    const bool reduce = measure && w % 4 == 0 && h % 4 == 0;
     cv::Mat& small = out.reduced;
     if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));  // kept when it has that size
     std::int64_t saturated = 0;
 
-    int loaded = -1;  // the last mosaic row loaded
-    int lastSource = -1;
-    for (int y = 0; y < h; ++y) {
-        // The first and last rows copy their neighbour's demosaic, as OpenCV's.
-        const int source = std::clamp(y, 1, h - 2);
-        if (source != lastSource) {
-            while (loaded < source + 1) {
-                ++loaded;
-                float* dst = mosaicRow[loaded % 3];
-                if constexpr (sizeof(S) == 2) {
-                    if (in.endianSwap) swapRow(mosaic.ptr<std::uint16_t>(loaded), dst, w);
-                    else loadRow(mosaic.ptr<S>(loaded), dst, w);
-                } else {
-                    loadRow(mosaic.ptr<S>(loaded), dst, w);
+    // Every output pixel of @p area. The demosaic of its edge pixels reads one
+    // more column and row of the mosaic each side (where the image has them),
+    // and the image's first and last rows and columns copy their neighbour's,
+    // as OpenCV's: so an area gives exactly what the whole image gives there.
+    const auto pass = [&](const cv::Rect& area) {
+        // The columns demosaiced: the area widened by one each side inside the
+        // image, and at least three, so that a first or last column always has
+        // the neighbour it copies computed.
+        const int c0 = std::max(std::min(area.x - 1, w - 3), 0);
+        const int c1 = std::min(std::max(area.x + area.width + 1, 3), w);
+        const int m = c1 - c0;
+        const std::size_t o = static_cast<std::size_t>(c0);
+        int loaded = std::clamp(area.y, 1, h - 2) - 2;  // the last mosaic row loaded
+        int lastSource = -1;
+        for (int y = area.y; y < area.y + area.height; ++y) {
+            // The first and last rows copy their neighbour's demosaic, as OpenCV's.
+            const int source = std::clamp(y, 1, h - 2);
+            if (source != lastSource) {
+                while (loaded < source + 1) {
+                    ++loaded;
+                    float* dst = mosaicRow[loaded % 3] + o;
+                    if constexpr (sizeof(S) == 2) {
+                        if (in.endianSwap) swapRow(mosaic.ptr<std::uint16_t>(loaded) + o, dst, m);
+                        else loadRow(mosaic.ptr<S>(loaded) + o, dst, m);
+                    } else {
+                        loadRow(mosaic.ptr<S>(loaded) + o, dst, m);
+                    }
+                    if (in.factors != nullptr) lightRow(dst, in.factors->ptr<float>(loaded) + o, m, full);
                 }
-                if (in.factors != nullptr) lightRow(dst, in.factors->ptr<float>(loaded), w, full);
+                const int parity = source & 1;
+                float* own = demosaiced[ownColour[parity]];
+                float* third = demosaiced[otherColour[parity]];
+                const std::size_t roles = static_cast<std::size_t>(parity) * n + o;
+                demosaicRow(mosaicRow[(source - 1) % 3] + o, mosaicRow[source % 3] + o,
+                            mosaicRow[(source + 1) % 3] + o, ownColumn.data() + roles,
+                            greenColumn.data() + roles, own + o, demosaiced[1] + o, third + o, m);
+                for (float* plane : demosaiced) {  // the first and last columns copy their neighbour's
+                    if (c0 == 0) plane[0] = plane[1];
+                    if (c1 == w) plane[w - 1] = plane[w - 2];
+                }
+                lastSource = source;
             }
-            const int parity = source & 1;
-            float* own = demosaiced[ownColour[parity]];
-            float* third = demosaiced[otherColour[parity]];
-            demosaicRow(mosaicRow[(source - 1) % 3], mosaicRow[source % 3], mosaicRow[(source + 1) % 3],
-                        ownColumn.data() + parity * n, greenColumn.data() + parity * n, own, demosaiced[1], third,
-                        w);
-            for (float* plane : demosaiced) {  // the first and last columns copy their neighbour's
-                plane[0] = plane[1];
-                plane[w - 1] = plane[w - 2];
-            }
-            lastSource = source;
-        }
-        const float* const* planes = demosaiced;
-        const float* b = planes[0];
-        const float* g = planes[1];
-        const float* r = planes[2];
-        storeRow(b, g, r, samplePlanes.data(), out.bgr.ptr<S>(y), w);
+            const float* const* planes = demosaiced;
+            const float* b = planes[0];
+            const float* g = planes[1];
+            const float* r = planes[2];
+            const int x0 = area.x, x1 = area.x + area.width;
+            storeRow(b + x0, g + x0, r + x0, samplePlanes.data(), out.bgr.ptr<S>(y) + 3 * x0, area.width);
 
-        for (std::size_t t = 0; t < types; ++t) {
-            const ColorTest& test = (*in.tests)[t];
-            std::uint8_t* mask = out.masks[t].ptr<std::uint8_t>(y);
-            const cv::Rect& win = test.window();
-            if (y < win.y || y >= win.y + win.height) {
-                std::memset(mask, 0, n);
-                continue;
+            for (std::size_t t = 0; t < types; ++t) {
+                const ColorTest& test = (*in.tests)[t];
+                std::uint8_t* mask = out.masks[t].ptr<std::uint8_t>(y);
+                const cv::Rect& win = test.window();
+                const bool inRows = y >= win.y && y < win.y + win.height;
+                if (regional) {  // the rest of the mask is 0 already
+                    const int a = std::max(x0, win.x), e = std::min(x1, win.x + win.width);
+                    if (inRows && a < e) test.row(b + a, g + a, r + a, mask + a, e - a, scratch.data());
+                    continue;
+                }
+                if (!inRows) {
+                    std::memset(mask, 0, n);
+                    continue;
+                }
+                std::memset(mask, 0, static_cast<std::size_t>(win.x));
+                test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
+                std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
             }
-            std::memset(mask, 0, static_cast<std::size_t>(win.x));
-            test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
-            std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
-        }
 
-        if (in.visibility) {
-            saturated += countSaturated(b, g, r, w, full);
-            if (reduce) {
-                for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], w);
-                if (y % 4 == 3) {
-                    for (int c = 0; c < 3; ++c) blockMeans<S>(sums[c], small.ptr<S>(y / 4) + c, w / 4);
-                    for (float* s : sums) std::fill(s, s + w, 0.0f);
+            if (measure) {
+                saturated += countSaturated(b, g, r, w, full);
+                if (reduce) {
+                    for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], w);
+                    if (y % 4 == 3) {
+                        for (int c = 0; c < 3; ++c) blockMeans<S>(sums[c], small.ptr<S>(y / 4) + c, w / 4);
+                        for (float* s : sums) std::fill(s, s + w, 0.0f);
+                    }
                 }
             }
         }
+    };
+
+    if (regional) {
+        // The callers' buffers are 0 outside the regions (BufferPool::getZeroedOutside);
+        // one that is not is cleared here.
+        if (!bgrClear) out.bgr.setTo(0);
+        if (!masksClear)
+            for (cv::Mat& mask : out.masks) mask.setTo(0);
+        const cv::Rect image(0, 0, w, h);
+        for (const cv::Rect& area : *in.regions) {
+            if ((area & image) != area || area.empty())
+                throw InvalidArgument("front end: search region [" + std::to_string(area.x) + ", " +
+                                      std::to_string(area.y) + ", " + std::to_string(area.width) + "x" +
+                                      std::to_string(area.height) + "] is empty or not inside the " +
+                                      std::to_string(w) + "x" + std::to_string(h) + " image");
+            pass(area);
+        }
+        out.visibility.reset();
+        return;
     }
+    pass(cv::Rect(0, 0, w, h));
     if (in.visibility)
         out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total(),
                                                         &out.visibilityScratch)

@@ -42,6 +42,12 @@ struct FrontEndInput {
     /// The colour tests, compiled for this size and depth; null: no filter.
     const std::vector<ColorTest>* tests{nullptr};
     bool visibility{false};   ///< measure the visibility statistics
+    /// The search regions of a tracking frame (AnalysisFrame::regions): when
+    /// not null and not empty, only their pixels are computed, each bit for
+    /// bit what the whole image gives there (its demosaic reads the mosaic
+    /// around it); the rest of the image and masks is 0 and no visibility is
+    /// measured. Rectangles inside the image, disjoint.
+    const std::vector<cv::Rect>* regions{nullptr};
 };
 
 /// The outputs. A buffer already of the right size and type (continuous) is
@@ -55,6 +61,10 @@ struct FrontEndResult {
     /// the pass again on images of the same size (no allocation per frame).
     cv::Mat reduced;
     VisibilityScratch visibilityScratch;  ///< likewise
+    /// With regions: the caller's bgr or masks are known to be 0 outside them
+    /// (else they are cleared first).
+    bool bgrZeroOutsideRegions{false};
+    bool masksZeroOutsideRegions{false};
 };
 
 /// Whether the fused pass takes this mosaic: 8 or 16-bit, one channel, at

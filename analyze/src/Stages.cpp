@@ -17,6 +17,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <iterator>
+
 namespace avatar {
 namespace {
 
@@ -160,12 +163,25 @@ public:
     void processImage(AnalysisFrame& frame, Side side) override {
         auto& masks = frame.at(side).masks;
         detail::BufferPool& pool = pools_[side == Side::Left ? 0 : 1];
-        for (std::size_t t = 0; t < types_.size() && t < masks.size(); ++t)
-            if (types_[t].erodeRestore) {
+        const std::vector<cv::Rect>& regions = frame.regionsOf(side);
+        for (std::size_t t = 0; t < types_.size() && t < masks.size(); ++t) {
+            if (!types_[t].erodeRestore) continue;
+            const int kernel = types_[t].erodeKernelSize;
+            if (regions.empty()) {
                 cv::Mat restored = pool.get(masks[t].size(), CV_8UC1);
-                erodeRestore(masks[t], types_[t].erodeKernelSize, restored);
+                erodeRestore(masks[t], kernel, restored);
                 masks[t] = std::move(restored);
+                continue;
             }
+            // Each region as its own image: a feature inside it erodes as in
+            // the whole mask (one reaching the region's edge is cut there anyway).
+            cv::Mat restored = pool.getZeroedOutside(masks[t].size(), CV_8UC1, regions);
+            for (const cv::Rect& region : regions) {
+                cv::Mat part = restored(region);
+                erodeRestore(masks[t](region), kernel, part);
+            }
+            masks[t] = std::move(restored);
+        }
     }
 
 private:
@@ -188,9 +204,29 @@ public:
         requirePerType(work.masks.size(), types_.size(), name(), "masks");
         work.features.assign(types_.size(), {});
         const cv::Mat intensity = weighted_ && work.image.channels() == 3 ? work.image : cv::Mat();
-        for (std::size_t t = 0; t < types_.size(); ++t)
-            work.features[t] = locateFeatures(work.masks[t], intensity, types_[t],
-                                              searchWindow(types_[t], work.masks[t].size()));
+        const std::vector<cv::Rect>& regions = frame.regionsOf(side);
+        for (std::size_t t = 0; t < types_.size(); ++t) {
+            const cv::Rect window = searchWindow(types_[t], work.masks[t].size());
+            if (regions.empty()) {
+                work.features[t] = locateFeatures(work.masks[t], intensity, types_[t], window);
+                continue;
+            }
+            // Each region within the type's window is a search window of its
+            // own; the features in raster order of their first pixel, as one
+            // search of the whole image gives them.
+            std::vector<Feature>& found = work.features[t];
+            for (const cv::Rect& region : regions) {
+                const cv::Rect within = region & window;
+                if (within.empty()) continue;
+                std::vector<Feature> part = locateFeatures(work.masks[t], intensity, types_[t], within);
+                found.insert(found.end(), std::make_move_iterator(part.begin()), std::make_move_iterator(part.end()));
+            }
+            std::stable_sort(found.begin(), found.end(), [](const Feature& a, const Feature& b) {
+                const cv::Point& p = a.boundary[kTopLeft];
+                const cv::Point& q = b.boundary[kTopLeft];
+                return p.y != q.y ? p.y < q.y : p.x < q.x;
+            });
+        }
     }
 
 private:
@@ -328,13 +364,19 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
                                                                            : nullptr;
     in.tests = filter_ != nullptr ? &tests_ : nullptr;
     in.visibility = visibility_ != nullptr;
+    const std::vector<cv::Rect>& regions = frame.regionsOf(side);
+    in.regions = &regions;
     detail::FrontEndResult out;
     out.reduced = std::move(reduced_[i]);
     out.visibilityScratch = std::move(visibilityScratch_[i]);
-    out.bgr = images_[i].get(mosaic.size(), CV_MAKETYPE(mosaic.depth(), 3));
+    const auto buffer = [&](detail::BufferPool& pool, int type) {
+        return regions.empty() ? pool.get(mosaic.size(), type) : pool.getZeroedOutside(mosaic.size(), type, regions);
+    };
+    out.bgr = buffer(images_[i], CV_MAKETYPE(mosaic.depth(), 3));
+    out.bgrZeroOutsideRegions = out.masksZeroOutsideRegions = true;
     out.masks.resize(tests_.size());
     if (in.tests != nullptr)
-        for (cv::Mat& m : out.masks) m = masks_[i].get(mosaic.size(), CV_8UC1);
+        for (cv::Mat& m : out.masks) m = buffer(masks_[i], CV_8UC1);
     detail::runFrontEnd(in, out);
     ImageWork& work = frame.at(side);
     work.image = std::move(out.bgr);

@@ -594,14 +594,24 @@ VisibilityConfig readVisibility(Reader& r, const XMLElement* el, const std::stri
     return v;
 }
 
+TrackingConfig readTracking(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"enabled", "fullFrameEvery", "marginPx"});
+    TrackingConfig t;
+    t.enabled = s.get("enabled", readBool);
+    s.getOptional("fullFrameEvery", t.fullFrameEvery, readInt);
+    s.getOptional("marginPx", t.marginPx, readInt);
+    return t;
+}
+
 AnalysisConfig readAnalysis(Reader& r, const XMLElement* el, const std::string& path) {
-    const Section s(r, el, path, {"stages", "demosaic", "centroid", "triangulation", "visibility"});
+    const Section s(r, el, path, {"stages", "demosaic", "centroid", "triangulation", "visibility", "tracking"});
     AnalysisConfig a;
     s.getOptional("stages", a.stages, readWords);
     s.getOptional("demosaic", a.demosaic, readEnum<DemosaicAlgorithm>);
     s.getOptional("centroid", a.centroid, readEnum<CentroidMode>);
     s.getOptional("triangulation", a.triangulation, readEnum<TriangulationMode>);
     s.getOptional("visibility", a.visibility, readVisibility);
+    s.getOptional("tracking", a.tracking, readTracking);
     return a;
 }
 

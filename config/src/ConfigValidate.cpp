@@ -443,6 +443,10 @@ void validateAnalysis(const Checker& k, const AnalysisConfig& a) {
     k.between(a.visibility.minContrast, 0.0, 1.0, v + "/minContrast");
     k.between(a.visibility.maxSaturatedFraction, 0.0, 1.0, v + "/maxSaturatedFraction");
     k.between(a.visibility.maxHaze, 0.0, 1.0, v + "/maxHaze");
+    // A region must hold what the target's assembly reads beyond its feature
+    // (the silhouette's edge profiles, the erosion's reach): 8 px at least.
+    k.intBetween(a.tracking.fullFrameEvery, 1, 1000000, p + "/tracking/fullFrameEvery");
+    k.intBetween(a.tracking.marginPx, 8, 100000, p + "/tracking/marginPx");
 }
 
 void validateServo(const Checker& k, const ServoConfig& c, const TargetConfig* targets) {

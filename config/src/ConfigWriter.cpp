@@ -225,6 +225,11 @@ void writeAnalysis(Writer& w, const AnalysisConfig& a) {
     w.number("maxSaturatedFraction", a.visibility.maxSaturatedFraction);
     w.number("maxHaze", a.visibility.maxHaze);
     w.close();
+    w.open("tracking");
+    w.boolean("enabled", a.tracking.enabled);
+    w.integer("fullFrameEvery", a.tracking.fullFrameEvery);
+    w.integer("marginPx", a.tracking.marginPx);
+    w.close();
     w.close();
 }
 

@@ -9,6 +9,7 @@
 // correction and demosaic changes on whole scenes is measured in
 // docs/accuracy.md.
 
+#include "BufferPool.h"
 #include "FrontEnd.h"
 
 #include <avatar/analyze/ImageColorFilter.h>
@@ -260,6 +261,120 @@ TEST(FrontEnd, RefusesWhatItDoesNotHandle) {
     in.mosaic = cv::Mat(8, 8, CV_8UC1, cv::Scalar(1));
     in.bitDepth = 12;
     EXPECT_THROW(detail::runFrontEnd(in, out), InvalidArgument);
+}
+
+
+// A tracking frame's regions (AnalysisFrame::regions): inside each, every
+// output bit for bit what the whole image gives; outside, 0. The regions sit
+// at odd and even offsets (the Bayer phase), on every edge of the image, one
+// pixel wide or tall, in corners; the buffers hold junk from before.
+TEST(FrontEnd, RegionsGiveTheWholeImagesPixels) {
+    struct RegionCase {
+        Case c;
+        std::vector<cv::Rect> regions;
+    };
+    const std::vector<RegionCase> cases = {
+        {{{64, 48}, CV_16U, 16, BayerPattern::BG, true, false}, {{5, 3, 17, 11}, {30, 20, 9, 1}, {50, 30, 1, 9}}},
+        {{{64, 48}, CV_16U, 12, BayerPattern::GR, true, true}, {{0, 0, 10, 7}, {54, 41, 10, 7}, {20, 0, 1, 1}}},
+        {{{64, 48}, CV_8U, 8, BayerPattern::RG, false, false}, {{0, 10, 1, 30}, {63, 10, 1, 30}, {10, 47, 40, 1}}},
+        {{{37, 23}, CV_16U, 14, BayerPattern::GB, true, false}, {{1, 1, 35, 21}}},
+        {{{37, 23}, CV_16U, 14, BayerPattern::BG, false, false}, {{0, 0, 37, 23}}},
+        {{{6, 9}, CV_8U, 7, BayerPattern::GB, true, false}, {{0, 0, 1, 1}, {5, 8, 1, 1}, {2, 3, 2, 2}}},
+    };
+    std::uint64_t seed = 200;
+    for (const RegionCase& rc : cases) {
+        const Case& c = rc.c;
+        SCOPED_TRACE(describe(c));
+        cv::Mat mosaic = mosaicOf(c.size, c.depth, c.bitDepth, seed++);
+        if (c.swap) swapEndian16(mosaic);
+        const std::vector<TargetType> types = filterTypes(c.size);
+        std::vector<detail::ColorTest> tests;
+        for (const TargetType& t : types) tests.emplace_back(t, c.size, c.depth, c.bitDepth);
+        LightingCorrector corrector(lightingConfig(c.size));
+        corrector.prepareMosaic(c.size, c.pattern);
+        detail::FrontEndInput in;
+        in.mosaic = mosaic;
+        in.pattern = c.pattern;
+        in.bitDepth = c.bitDepth;
+        in.endianSwap = c.swap;
+        in.factors = c.lighting ? &corrector.mosaicFactors() : nullptr;
+        in.tests = &tests;
+        in.visibility = true;
+        detail::FrontEndResult whole;
+        detail::runFrontEnd(in, whole);
+
+        // Into buffers full of junk, said not to be clear: the pass clears them.
+        in.regions = &rc.regions;
+        detail::FrontEndResult part;
+        part.bgr = cv::Mat(c.size, CV_MAKETYPE(c.depth, 3), cv::Scalar::all(77));
+        part.masks.assign(types.size(), cv::Mat());
+        for (cv::Mat& m : part.masks) m = cv::Mat(c.size, CV_8UC1, cv::Scalar(77));
+        detail::runFrontEnd(in, part);
+        EXPECT_FALSE(part.visibility.has_value());  // a tracking frame measures none
+
+        cv::Mat inside(c.size, CV_8UC1, cv::Scalar(0));
+        for (const cv::Rect& r : rc.regions) inside(r).setTo(255);
+        const auto check = [&](const cv::Mat& got, const cv::Mat& full, const std::string& what) {
+            cv::Mat expected(full.size(), full.type(), cv::Scalar::all(0));
+            full.copyTo(expected, inside);
+            expectIdentical(got, expected, what);
+        };
+        check(part.bgr, whole.bgr, "image");
+        ASSERT_EQ(part.masks.size(), whole.masks.size());
+        for (std::size_t t = 0; t < types.size(); ++t) check(part.masks[t], whole.masks[t], "mask of " + types[t].name);
+    }
+}
+
+TEST(FrontEnd, RefusesARegionOutsideTheImage) {
+    const cv::Mat mosaic = mosaicOf({40, 20}, CV_16U, 16, 7);
+    detail::FrontEndInput in;
+    in.mosaic = mosaic;
+    const std::vector<cv::Rect> regions{{30, 5, 11, 4}};
+    in.regions = &regions;
+    detail::FrontEndResult out;
+    try {
+        detail::runFrontEnd(in, out);
+        FAIL() << "accepted a region outside the image";
+    } catch (const InvalidArgument& e) {
+        EXPECT_NE(std::string(e.what()).find("search region [30, 5, 11x4] is empty or not inside the 40x20 image"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+// The pool clears only what a buffer's last user wrote, and all of a fresh one.
+TEST(BufferPool, ZeroedOutsideClearsWhatTheLastUserWrote) {
+    detail::BufferPool pool(2);
+    const cv::Size size(50, 40);
+    const std::vector<cv::Rect> first{{3, 4, 10, 10}, {30, 20, 5, 5}}, second{{20, 2, 8, 30}};
+    const auto outsideIsZero = [](const cv::Mat& m, const std::vector<cv::Rect>& regions) {
+        cv::Mat copy = m.clone();
+        for (const cv::Rect& r : regions) copy(r).setTo(0);
+        return cv::countNonZero(copy) == 0;
+    };
+    const uchar* address = nullptr;
+    {
+        cv::Mat a = pool.get(size, CV_8UC1);  // written whole by its user
+        a.setTo(9);
+        address = a.data;
+    }
+    {
+        cv::Mat b = pool.getZeroedOutside(size, CV_8UC1, first);
+        EXPECT_EQ(b.data, address);  // the same buffer again, cleared outside
+        EXPECT_TRUE(outsideIsZero(b, first));
+        for (const cv::Rect& r : first) b(r).setTo(5);
+    }
+    {
+        cv::Mat held = pool.getZeroedOutside(size, CV_8UC1, second);
+        EXPECT_EQ(held.data, address);
+        EXPECT_TRUE(outsideIsZero(held, second));  // the first regions' 5s are gone
+        cv::Mat other = pool.getZeroedOutside(size, CV_8UC1, first);  // the first is held: a fresh one
+        EXPECT_NE(other.data, address);
+        EXPECT_TRUE(outsideIsZero(other, first));
+        held(second[0]).setTo(4);
+    }
+    cv::Mat again = pool.getZeroedOutside(size, CV_8UC1, first);
+    EXPECT_TRUE(outsideIsZero(again, first));
 }
 
 }  // namespace

@@ -271,6 +271,9 @@ std::vector<Mutation> mutations() {
     add("analysis.visibility.maxSaturatedFraction",
         [](AvatarConfig& c) { c.analysis.visibility.maxSaturatedFraction = 1; });
     add("analysis.visibility.maxHaze", [](AvatarConfig& c) { c.analysis.visibility.maxHaze = 0.9; });
+    add("analysis.tracking.enabled", [](AvatarConfig& c) { c.analysis.tracking.enabled = true; });
+    add("analysis.tracking.fullFrameEvery", [](AvatarConfig& c) { c.analysis.tracking.fullFrameEvery = 7; });
+    add("analysis.tracking.marginPx", [](AvatarConfig& c) { c.analysis.tracking.marginPx = 80; });
 
     // The servo tuning: every field, starting from a section of defaults
     // whose types name the configuration's targets.

@@ -18,6 +18,10 @@
 
 namespace avatar {
 
+namespace detail {
+class RegionTracker;
+}
+
 class AnalyzeStereoImagePair {
 public:
     /// Validates @p config (ConfigError naming the element, as validateConfig())
@@ -33,8 +37,12 @@ public:
     AnalyzeStereoImagePair& operator=(const AnalyzeStereoImagePair&) = delete;
 
     /// Analyses one pair. Results are identical whether the two images are
-    /// processed in parallel or not. Throws avatar::InvalidArgument when the
-    /// pair does not fit the configured camera (size, channels).
+    /// processed in parallel or not. With config.analysis.tracking enabled, a
+    /// pair may be searched only in regions around the targets of the pairs
+    /// before (lastFrame().regions; docs/config.md "tracking"); there the
+    /// result is what a search of the whole image gives. Throws
+    /// avatar::InvalidArgument when the pair does not fit the configured
+    /// camera (size, channels).
     VisionTargets analyze(const StereoImagePair& pair, std::uint64_t iteration);
 
     /// Runs both images on the calling thread (for tests and profiling).
@@ -69,6 +77,7 @@ private:
     std::vector<std::unique_ptr<ProcessStereoImagePair>> stages_;
     std::vector<std::string> names_;
     std::unique_ptr<Worker> worker_;
+    std::unique_ptr<detail::RegionTracker> tracker_;
     AnalysisFrame frame_;
     std::vector<StageTiming> cpuTimings_;
     bool parallel_{true};

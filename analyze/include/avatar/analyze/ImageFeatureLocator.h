@@ -24,9 +24,10 @@ namespace avatar {
 /// Throws avatar::FormatError when @p mask is not CV_8UC1 and
 /// avatar::InvalidArgument when @p kernelSize is not odd and positive.
 cv::Mat erodeRestore(const cv::Mat& mask, int kernelSize);
-/// The same into @p out, reused when it is a continuous CV_8UC1 of the mask's
-/// size (the caller decides it may be overwritten), else (re)allocated; it
-/// must not share the mask's buffer (avatar::InvalidArgument).
+/// The same into @p out, written in place when it is a CV_8UC1 of the mask's
+/// size (the caller decides it may be overwritten; a view into a larger image
+/// is written there), else (re)allocated; it must not share the mask's buffer
+/// (avatar::InvalidArgument).
 void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out);
 
 /// Finds the 8-connected features of @p mask (CV_8UC1, non-zero = "on")

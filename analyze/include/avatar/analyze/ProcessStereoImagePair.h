@@ -43,9 +43,19 @@ struct AnalysisFrame {
     std::array<ImageWork, 2> images;                ///< indexed by Side
     std::vector<std::vector<FeatureMatch>> matches; ///< per target type
     VisionTargets result;
+    /// A tracking frame's search regions per side (indexed by Side): disjoint
+    /// rectangles inside the image, apart by at least one pixel, around the
+    /// targets of the frames before (AnalyzeStereoImagePair, docs/config.md
+    /// "tracking"). Only their pixels are searched: the stages compute the
+    /// images and masks there only (0 elsewhere), and features are located in
+    /// each region as in a search window. Empty: the whole image.
+    std::array<std::vector<cv::Rect>, 2> regions;
 
     ImageWork& at(Side side) { return images[side == Side::Left ? 0 : 1]; }
     const ImageWork& at(Side side) const { return images[side == Side::Left ? 0 : 1]; }
+    const std::vector<cv::Rect>& regionsOf(Side side) const { return regions[side == Side::Left ? 0 : 1]; }
+    /// Whether this is a tracking frame (some side has search regions).
+    bool tracking() const { return !regions[0].empty() || !regions[1].empty(); }
 };
 
 /// One stage. For each frame the orchestrator calls prepare() once, then

@@ -38,6 +38,19 @@ struct VisibilityConfig {
     }
 };
 
+/// Region-of-interest tracking (the thesis's search windows, made automatic):
+/// after a whole-image search, a frame is searched only in regions around the
+/// whole stereo targets found before, until a target is lost or flagged
+/// partial, or fullFrameEvery frames have passed (docs/config.md "tracking").
+struct TrackingConfig {
+    bool enabled{false};
+    int fullFrameEvery{30};  ///< a whole-image search at least this often (frames)
+    int marginPx{48};        ///< how far a region reaches beyond a target's feature box
+    bool operator==(const TrackingConfig& o) const {
+        return enabled == o.enabled && fullFrameEvery == o.fullFrameEvery && marginPx == o.marginPx;
+    }
+};
+
 struct AnalysisConfig {
     /// Stage names in order; see docs/config.md for the list and their rules.
     std::vector<std::string> stages{"demosaic",        "lighting", "color_filter", "erode_restore",
@@ -46,10 +59,11 @@ struct AnalysisConfig {
     CentroidMode centroid{CentroidMode::Coverage};
     TriangulationMode triangulation{TriangulationMode::Centroid};
     VisibilityConfig visibility;
+    TrackingConfig tracking;
 
     bool operator==(const AnalysisConfig& o) const {
         return stages == o.stages && demosaic == o.demosaic && centroid == o.centroid &&
-               triangulation == o.triangulation && visibility == o.visibility;
+               triangulation == o.triangulation && visibility == o.visibility && tracking == o.tracking;
     }
 };
 

@@ -1,0 +1,199 @@
+// The region-of-interest tracking mode (config.analysis.tracking,
+// analyze/src/RegionTracker.h) on the rendered lab scene: after a
+// whole-image search, frames are searched only around the targets found, and
+// there the result is what the whole image gives (targets field for field,
+// masks and image pixel for pixel); the whole image is searched again every
+// fullFrameEvery frames and after a target is lost.
+
+#include "AccuracyHarness.h"
+#include "RegionTracker.h"
+
+#include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/config/ConfigXml.h>
+#include <avatar/render/Renderer.h>
+#include <avatar/render/Scene.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace avatar;
+
+namespace {
+
+struct Lab {
+    AvatarConfig config = readConfigFile(accuracy::dataDir() / "config/scorpion.xml");
+    render::Scene scene = render::readSceneFile(accuracy::dataDir() / "scenes/lab.xml");
+
+    /// The lab pair with the duck moved by @p shiftMm.
+    StereoImagePair pair(cv::Vec3d shiftMm, std::uint64_t seed) const {
+        render::Scene moved = scene;
+        if (!moved.targets.empty()) moved.targets[0].centreMm += shiftMm;
+        render::RenderOptions options;
+        options.sensor = render::sensorFormatFrom(config.camera);
+        options.seed = seed;
+        return render::render(moved, config.stereo, options).pair;
+    }
+
+    AvatarConfig tracking(int fullFrameEvery) const {
+        AvatarConfig c = config;
+        c.analysis.tracking.enabled = true;
+        c.analysis.tracking.fullFrameEvery = fullFrameEvery;
+        return c;
+    }
+};
+
+std::string describe(const VisionTarget& t) {
+    std::ostringstream o;
+    o.precision(17);
+    o << "flags " << t.flags << " model " << static_cast<int>(t.model);
+    if (t.positionVisionMm) o << " pos " << *t.positionVisionMm;
+    if (t.centroidLeftPx) o << " L " << *t.centroidLeftPx;
+    if (t.centroidRightPx) o << " R " << *t.centroidRightPx;
+    o << " areas " << t.areaLeftPx << " " << t.areaRightPx << " err " << t.matchError << " res " << t.rayResidualMm
+      << " " << t.rayResidualPx;
+    if (t.covarianceVisionMm2) o << " cov00 " << t.covarianceVisionMm2->val[0];
+    return o.str();
+}
+
+int wholeTargets(const VisionTargets& r) {
+    int n = 0;
+    for (const VisionTarget& t : r.targets) n += (t.flags & kTargetStereo) && (t.flags & kTargetWhole) ? 1 : 0;
+    return n;
+}
+
+/// @p got equals @p full inside the regions and is 0 outside them.
+void expectRegionsOf(const cv::Mat& got, const cv::Mat& full, const std::vector<cv::Rect>& regions,
+                     const std::string& what) {
+    ASSERT_EQ(got.size(), full.size()) << what;
+    ASSERT_EQ(got.type(), full.type()) << what;
+    cv::Mat inside(full.size(), CV_8UC1, cv::Scalar(0));
+    for (const cv::Rect& r : regions) inside(r).setTo(255);
+    cv::Mat expected(full.size(), full.type(), cv::Scalar::all(0));
+    full.copyTo(expected, inside);
+    cv::Mat diff;
+    cv::absdiff(got.reshape(1), expected.reshape(1), diff);
+    EXPECT_EQ(cv::countNonZero(diff), 0) << what;
+}
+
+/// The tracking frame's result and working images against a whole-image search of the same pair.
+void expectTrackingEqualsWhole(const AnalysisFrame& tracked, const AnalysisFrame& whole) {
+    ASSERT_TRUE(tracked.tracking());
+    EXPECT_FALSE(whole.tracking());
+    ASSERT_EQ(tracked.result.targets.size(), whole.result.targets.size());
+    for (std::size_t i = 0; i < whole.result.targets.size(); ++i)
+        EXPECT_TRUE(tracked.result.targets[i] == whole.result.targets[i])
+            << "target " << i << " (" << whole.result.targets[i].type << ") differs: " << describe(tracked.result.targets[i]) << " vs " << describe(whole.result.targets[i]);
+    EXPECT_EQ(tracked.result.visibility, whole.result.visibility);
+    for (const Side side : {Side::Left, Side::Right}) {
+        const std::string name = side == Side::Left ? "left" : "right";
+        const std::vector<cv::Rect>& regions = tracked.regionsOf(side);
+        ASSERT_FALSE(regions.empty()) << name;
+        expectRegionsOf(tracked.at(side).image, whole.at(side).image, regions, name + " image");
+        ASSERT_EQ(tracked.at(side).masks.size(), whole.at(side).masks.size());
+        for (std::size_t t = 0; t < whole.at(side).masks.size(); ++t)
+            expectRegionsOf(tracked.at(side).masks[t], whole.at(side).masks[t], regions,
+                            name + " mask " + std::to_string(t));
+    }
+}
+
+}  // namespace
+
+// The duck moves 8 mm between the frames: the regions made around it on the
+// first frame still hold it, and the second frame, searched only there, gives
+// what a search of the whole image gives.
+TEST(Tracking, ATrackingFrameGivesWhatTheWholeImageGives) {
+    const Lab lab;
+    AnalyzeStereoImagePair tracker(lab.tracking(30)), plain(lab.config);
+    const VisionTargets first = tracker.analyze(lab.pair({0, 0, 0}, 1), 0);
+    EXPECT_FALSE(tracker.lastFrame().tracking());
+    ASSERT_EQ(wholeTargets(first), 2);  // the duck and the arm marker
+
+    const StereoImagePair moved = lab.pair({8, -5, 3}, 2);
+    tracker.analyze(moved, 1);
+    plain.analyze(moved, 1);
+    EXPECT_FALSE(plain.lastFrame().tracking());  // tracking is off by default
+    expectTrackingEqualsWhole(tracker.lastFrame(), plain.lastFrame());
+    EXPECT_EQ(wholeTargets(tracker.lastFrame().result), 2);
+    // It searched a small part of the images.
+    for (const Side side : {Side::Left, Side::Right}) {
+        double area = 0.0;
+        for (const cv::Rect& r : tracker.lastFrame().regionsOf(side)) area += r.area();
+        EXPECT_LT(area, 0.2 * moved.size().area());
+    }
+}
+
+// The same through the stages one by one (the edge-aware demosaic is not fused).
+TEST(Tracking, ATrackingFrameOfTheUnfusedChainGivesWhatTheWholeImageGives) {
+    Lab lab;
+    lab.config.analysis.demosaic = DemosaicAlgorithm::EdgeAware;
+    AnalyzeStereoImagePair tracker(lab.tracking(30)), plain(lab.config);
+    ASSERT_EQ(wholeTargets(tracker.analyze(lab.pair({0, 0, 0}, 3), 0)), 2);
+    const StereoImagePair moved = lab.pair({-6, 4, 0}, 4);
+    tracker.analyze(moved, 1);
+    plain.analyze(moved, 1);
+    const AnalysisFrame& t = tracker.lastFrame();
+    const AnalysisFrame& w = plain.lastFrame();
+    ASSERT_TRUE(t.tracking());
+    ASSERT_EQ(t.result.targets.size(), w.result.targets.size());
+    for (std::size_t i = 0; i < w.result.targets.size(); ++i) EXPECT_TRUE(t.result.targets[i] == w.result.targets[i]);
+}
+
+TEST(Tracking, TheWholeImageEveryNFramesAndAfterATargetIsLost) {
+    const Lab lab;
+    AnalyzeStereoImagePair tracker(lab.tracking(3)), plain(lab.config);
+    const StereoImagePair still = lab.pair({0, 0, 0}, 5);
+    std::string pattern;
+    for (std::uint64_t i = 0; i < 7; ++i) {
+        EXPECT_EQ(wholeTargets(tracker.analyze(still, i)), 2) << "frame " << i;
+        pattern += tracker.lastFrame().tracking() ? 'T' : 'W';
+    }
+    EXPECT_EQ(pattern, "WTTWTTW");
+
+    // The duck jumps 150 mm sideways, out of its region: the tracking frame
+    // loses it, and the next frame searches the whole image and finds it.
+    const StereoImagePair jumped = lab.pair({150, 0, 0}, 6);
+    tracker.analyze(jumped, 7);
+    ASSERT_TRUE(tracker.lastFrame().tracking());
+    EXPECT_LT(wholeTargets(tracker.lastFrame().result), 2);
+    const VisionTargets found = tracker.analyze(jumped, 8);
+    EXPECT_FALSE(tracker.lastFrame().tracking());
+    EXPECT_EQ(wholeTargets(found), 2);
+    EXPECT_TRUE(found.targets == plain.analyze(jumped, 8).targets);
+    tracker.analyze(jumped, 9);
+    EXPECT_TRUE(tracker.lastFrame().tracking());  // following it again
+}
+
+TEST(Tracking, NothingToFollowKeepsSearchingTheWholeImage) {
+    Lab lab;
+    lab.scene.targets.clear();
+    lab.scene.armMarkers.clear();
+    AnalyzeStereoImagePair tracker(lab.tracking(30));
+    const StereoImagePair empty = lab.pair({0, 0, 0}, 7);
+    for (std::uint64_t i = 0; i < 3; ++i) {
+        EXPECT_EQ(wholeTargets(tracker.analyze(empty, i)), 0);
+        EXPECT_FALSE(tracker.lastFrame().tracking());
+    }
+}
+
+// Boxes widened by the margin and clipped; regions closer than one clear
+// pixel merged (an 8-connected feature cannot span two), the rest kept apart.
+TEST(Tracking, RegionsAroundBoxes) {
+    const cv::Size size(200, 100);
+    EXPECT_EQ(detail::regionsAround({{10, 10, 20, 20}}, 5, size), (std::vector<cv::Rect>{{5, 5, 30, 30}}));
+    EXPECT_EQ(detail::regionsAround({{0, 90, 20, 20}}, 5, size), (std::vector<cv::Rect>{{0, 85, 25, 15}}));
+    // 5..34 and 36..: one clear column (35) between them: kept apart.
+    EXPECT_EQ(detail::regionsAround({{10, 10, 20, 20}, {41, 10, 20, 20}}, 5, size),
+              (std::vector<cv::Rect>{{5, 5, 30, 30}, {36, 5, 30, 30}}));
+    // Touching diagonally (34,34) and (35,35): merged.
+    EXPECT_EQ(detail::regionsAround({{10, 10, 20, 20}, {40, 40, 20, 20}}, 5, size),
+              (std::vector<cv::Rect>{{5, 5, 60, 60}}));
+    // A chain, given in any order: each joins the ones merged before it.
+    EXPECT_EQ(detail::regionsAround({{150, 10, 10, 10}, {10, 10, 10, 10}, {40, 10, 100, 10}, {20, 10, 10, 10},
+                                     {30, 10, 10, 10}},
+                                    2, size),
+              (std::vector<cv::Rect>{{8, 8, 134, 14}, {148, 8, 14, 14}}));
+}
