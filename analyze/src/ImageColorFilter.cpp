@@ -273,28 +273,40 @@ struct ZmmRatioLimits {
           bgOpen(lim.bgOpen ? typename Z::M(~0u) : 0) {}
 };
 
-/// ratioRow's verdict for the lanes of @p k (the others are 0). The ordered
-/// non-signalling predicates (_OQ) are C++'s <=, >=, > and ==, false for NaN.
-template <typename T>
-AVATAR_AVX512F inline typename Zmm<T>::M ratioMask(typename Zmm<T>::M k, typename Zmm<T>::V b, typename Zmm<T>::V g,
-                                                   typename Zmm<T>::V r, const ZmmRatioLimits<T>& l) {
+/// ratioRow's verdict for the lanes of @p valid (the others are 0). The
+/// ordered non-signalling predicates (_OQ) are C++'s <=, >=, > and ==, false
+/// for NaN. Three chains of masked compares (sum, minima, maxima) ANDed at the
+/// end rather than one chain of nine, so that one step's compares need not
+/// wait for each other. @p Open: some maximum is open (RatioLimits); without
+/// one the zero-denominator terms are 0 and left out.
+template <typename T, bool Open>
+AVATAR_AVX512F inline typename Zmm<T>::M ratioMask(typename Zmm<T>::M valid, typename Zmm<T>::V b,
+                                                   typename Zmm<T>::V g, typename Zmm<T>::V r,
+                                                   const ZmmRatioLimits<T>& l) {
     using Z = Zmm<T>;
+    using M = typename Z::M;
     const typename Z::V zero = Z::set1(T(0));
     const typename Z::V sum = Z::add(Z::add(b, g), r);
-    k = Z::template cmp<_CMP_GT_OQ>(k, sum, zero);
-    k = Z::template cmp<_CMP_GE_OQ>(k, sum, l.sumLo);
-    k = Z::template cmp<_CMP_LE_OQ>(k, sum, l.sumHi);
-    k = Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.rgLo, g), r);
-    k = Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.rbLo, b), r);
-    k = Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.bgLo, g), b);
-    // A max passes num <= hi * den, or with an open max a zero denominator
-    // (+infinity); the zero tests are limited to the lanes still passing.
-    const typename Z::M gZero = Z::template cmp<_CMP_EQ_OQ>(k, g, zero);
-    const typename Z::M bZero = Z::template cmp<_CMP_EQ_OQ>(k, b, zero);
-    k = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rgHi, g)) | (gZero & l.rgOpen);
-    k = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rbHi, b)) | (k & bZero & l.rbOpen);
-    k = Z::template cmp<_CMP_LE_OQ>(k, b, Z::mul(l.bgHi, g)) | (k & gZero & l.bgOpen);
-    return k;
+    M kSum = Z::template cmp<_CMP_GT_OQ>(valid, sum, zero);
+    kSum = Z::template cmp<_CMP_GE_OQ>(kSum, sum, l.sumLo);
+    kSum = Z::template cmp<_CMP_LE_OQ>(kSum, sum, l.sumHi);
+    M kMin = Z::template cmp<_CMP_LE_OQ>(valid, Z::mul(l.rgLo, g), r);
+    kMin = Z::template cmp<_CMP_LE_OQ>(kMin, Z::mul(l.rbLo, b), r);
+    kMin = Z::template cmp<_CMP_LE_OQ>(kMin, Z::mul(l.bgLo, g), b);
+    if constexpr (Open) {
+        // A max passes num <= hi * den, or when it is open a zero denominator (+infinity).
+        const M gZero = Z::template cmp<_CMP_EQ_OQ>(valid, g, zero);
+        const M bZero = Z::template cmp<_CMP_EQ_OQ>(valid, b, zero);
+        const M rgMax = Z::template cmp<_CMP_LE_OQ>(valid, r, Z::mul(l.rgHi, g)) | (gZero & l.rgOpen);
+        const M rbMax = Z::template cmp<_CMP_LE_OQ>(valid, r, Z::mul(l.rbHi, b)) | (bZero & l.rbOpen);
+        const M bgMax = Z::template cmp<_CMP_LE_OQ>(valid, b, Z::mul(l.bgHi, g)) | (gZero & l.bgOpen);
+        return kSum & kMin & rgMax & rbMax & bgMax;
+    } else {
+        M kMax = Z::template cmp<_CMP_LE_OQ>(valid, r, Z::mul(l.rgHi, g));
+        kMax = Z::template cmp<_CMP_LE_OQ>(kMax, r, Z::mul(l.rbHi, b));
+        kMax = Z::template cmp<_CMP_LE_OQ>(kMax, b, Z::mul(l.bgHi, g));
+        return kSum & kMin & kMax;
+    }
 }
 
 // The all-lanes masks below (maskz_ forms of unmasked operations) only keep
@@ -308,9 +320,10 @@ AVATAR_AVX512F inline __m128i verdictBytes(__mmask16 k) {
 
 /// ratioMask() of the 16 pixels at @p i, of which the lanes in @p valid exist
 /// (the others are not read).
+template <bool Open>
 AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, const float* pr, int i, __mmask16 valid,
                                             const ZmmRatioLimits<float>& l) {
-    return ratioMask<float>(valid, _mm512_maskz_loadu_ps(valid, pb + i), _mm512_maskz_loadu_ps(valid, pg + i),
+    return ratioMask<float, Open>(valid, _mm512_maskz_loadu_ps(valid, pb + i), _mm512_maskz_loadu_ps(valid, pg + i),
                             _mm512_maskz_loadu_ps(valid, pr + i), l);
 }
 
@@ -323,32 +336,44 @@ AVATAR_AVX512F inline __m512d widenHalf(__m512 v) {
 
 /// The same in double (as ratioRow<double>): the 16 samples widened, as two
 /// halves of 8.
+template <bool Open>
 AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, const float* pr, int i, __mmask16 valid,
                                             const ZmmRatioLimits<double>& l) {
     const __m512 b = _mm512_maskz_loadu_ps(valid, pb + i);
     const __m512 g = _mm512_maskz_loadu_ps(valid, pg + i);
     const __m512 r = _mm512_maskz_loadu_ps(valid, pr + i);
-    const __mmask8 kLow =
-        ratioMask<double>(static_cast<__mmask8>(valid), widenHalf<0>(b), widenHalf<0>(g), widenHalf<0>(r), l);
-    const __mmask8 kHigh =
-        ratioMask<double>(static_cast<__mmask8>(valid >> 8), widenHalf<1>(b), widenHalf<1>(g), widenHalf<1>(r), l);
+    const __mmask8 kLow = ratioMask<double, Open>(static_cast<__mmask8>(valid), widenHalf<0>(b), widenHalf<0>(g),
+                                                  widenHalf<0>(r), l);
+    const __mmask8 kHigh = ratioMask<double, Open>(static_cast<__mmask8>(valid >> 8), widenHalf<1>(b),
+                                                   widenHalf<1>(g), widenHalf<1>(r), l);
     return static_cast<__mmask16>(kLow | (kHigh << 8));
 }
 
 /// ratioRow with AVX-512F: 16 pixels a step, the last n % 16 with masked
 /// loads and a masked store (nothing outside the n pixels is read or written).
+template <typename T, bool Open>
+AVATAR_AVX512F void ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
+                                   const ZmmRatioLimits<T>& l) {
+    int i = 0;
+    for (; i + 16 <= n; i += 16) {
+        const __mmask16 k = ratioMask16<Open>(pb, pg, pr, i, 0xFFFF, l);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), verdictBytes(k));
+    }
+    if (i < n) {
+        const auto valid = static_cast<__mmask16>((1u << (n - i)) - 1u);
+        const __mmask16 k = ratioMask16<Open>(pb, pg, pr, i, valid, l);
+        _mm512_mask_cvtepi32_storeu_epi8(out + i, valid, _mm512_maskz_mov_epi32(k, _mm512_set1_epi32(255)));
+    }
+}
+
 template <typename T>
 AVATAR_AVX512F void ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
                                    const RatioLimits<T>& lim) {
     const ZmmRatioLimits<T> l(lim);
-    int i = 0;
-    for (; i + 16 <= n; i += 16)
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), verdictBytes(ratioMask16(pb, pg, pr, i, 0xFFFF, l)));
-    if (i < n) {
-        const auto valid = static_cast<__mmask16>((1u << (n - i)) - 1u);
-        const __mmask16 k = ratioMask16(pb, pg, pr, i, valid, l);
-        _mm512_mask_cvtepi32_storeu_epi8(out + i, valid, _mm512_maskz_mov_epi32(k, _mm512_set1_epi32(255)));
-    }
+    if (lim.rgOpen || lim.rbOpen || lim.bgOpen)
+        ratioRowAvx512<T, true>(pb, pg, pr, out, n, l);
+    else
+        ratioRowAvx512<T, false>(pb, pg, pr, out, n, l);
 }
 
 #undef AVATAR_AVX512F
