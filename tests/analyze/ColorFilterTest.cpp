@@ -586,6 +586,8 @@ TEST(ColorFilter, RowKernelAgreesWithTheDefinitionForEveryWidthAndEdgePixel) {
     std::vector<TargetType> types = {
         ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0}),
         ratioType({0.0, 1e9}, {1.5, 65536.0}, {0.0, 2.0}),  // open maxima and a zero minimum
+        ratioType({0.5, 2.0}, {0.5, 1e9}, {0.0, 2.0}),      // only R/B open: B = 0 can pass
+        ratioType({0.5, 2.0}, {0.0, 2.0}, {0.0, 1e9}),      // only B/G open: (B, 0, 0) passes
         ratioType({1.5, 65535.0}, {0.25, 4.0}, {0.0, 255.0}),  // maxima above 8-bit ratios, yet bounded
         ratioType({12345.0 / 54321.0, 40000.0 / 39999.0}, {std::nextafter(third, 0.0), 3.0}, {0.1, 65535.0 / 2.0}),
     };
