@@ -216,11 +216,11 @@ AVATAR_KERNEL_CLONES void ratioRow(const float* __restrict pb, const float* __re
 // ---------------------------------------------------------------------------
 // ratioRow with AVX-512F intrinsics. Even in its avx512f clone GCC compiles
 // ratioRow to 256-bit vectors with register spills and turns each compare
-// result into bytes through vector blends and packs (about 4.7 instructions
-// per pixel, the largest share of the fused front end). Here the compares of
-// 16 pixels chain into one mask register (a masked compare tests only the
-// lanes still passing) and the mask becomes the 16 verdict bytes in two
-// instructions. The operations are ratioRow's, in its order and type: each
+// result into bytes through vector blends and packs (191 instructions per 32
+// pixels, the largest share of the fused front end). Here the compares of 16
+// pixels go into mask registers (a masked compare tests only the lanes still
+// passing) and the mask becomes the 16 verdict bytes in two instructions:
+// 30 instructions per 16 pixels. The operations are ratioRow's, in its order and type: each
 // product limit * sample rounded once, then compared (no product feeds an
 // addition, so nothing can be fused into an FMA), the sum added as b + g + r;
 // so the verdicts are ratioRow's bit for bit (ColorFilterTest checks it). The
