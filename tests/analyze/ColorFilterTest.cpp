@@ -573,4 +573,100 @@ TEST(ColorFilter, BandsAreValidated) {
     EXPECT_THROW(colorFilterMasks(cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 1, 1)), 8, {t}, masks), InvalidArgument);
 }
 
+// The row kernel (an AVX-512 one where the CPU has it, the portable loop
+// elsewhere) against the definition, pixel by pixel: every row width from 1
+// to 40 (whole 16-pixel steps and every remainder), and the pixels where a
+// kernel can go wrong: zeros in each channel, black, the container's maximum,
+// ratios exactly at and next to each limit, sums at the band edges. The types
+// cover open and bounded maxima, zero minima, bands (several segments ORed),
+// and at 16 bits limits next to fractions with large denominators, which the
+// filter tests in double rather than float.
+TEST(ColorFilter, RowKernelAgreesWithTheDefinitionForEveryWidthAndEdgePixel) {
+    const double third = 1.0 / 3.0;
+    std::vector<TargetType> types = {
+        ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0}),
+        ratioType({0.0, 1e9}, {1.5, 65536.0}, {0.0, 2.0}),  // open maxima and a zero minimum
+        ratioType({0.5, 2.0}, {0.5, 1e9}, {0.0, 2.0}),      // only R/B open: B = 0 can pass
+        ratioType({0.5, 2.0}, {0.0, 2.0}, {0.0, 1e9}),      // only B/G open: (B, 0, 0) passes
+        ratioType({1.5, 65535.0}, {0.25, 4.0}, {0.0, 255.0}),  // maxima above 8-bit ratios, yet bounded
+        ratioType({12345.0 / 54321.0, 40000.0 / 39999.0}, {std::nextafter(third, 0.0), 3.0}, {0.1, 65535.0 / 2.0}),
+    };
+    cv::RNG rng(23);
+    for (const int bits : {8, 16}) {
+        const int scale = bits == 8 ? 1 : 257;
+        const int full = bits == 8 ? 255 : 65535;
+        TargetType banded = bandedType();
+        for (BrightnessBand& b : banded.brightnessBands) b.brightness = {b.brightness.min * scale, b.brightness.max * scale};
+        banded.brightness = Range{3.0 * scale, 700.0 * scale};
+        std::vector<TargetType> all = types;
+        all.push_back(banded);
+        for (const TargetType& t : all) {
+            // Ratio limits to put pixels at, and brightness edges to put sums at.
+            std::vector<double> limits = {t.redGreen.min, t.redGreen.max, t.redBlue.min, t.redBlue.max,
+                                          t.blueGreen.min, t.blueGreen.max};
+            std::vector<double> sums;
+            for (const BrightnessBand& b : t.brightnessBands) {
+                limits.insert(limits.end(), {b.redGreen.min, b.redGreen.max, b.redBlue.min, b.redBlue.max});
+                sums.insert(sums.end(), {std::floor(b.brightness.min), std::ceil(b.brightness.max)});
+            }
+            if (t.brightness) sums.insert(sums.end(), {t.brightness->min, t.brightness->max});
+            const auto sample = [&]() {
+                const int kind = rng.uniform(0, 6);
+                int v[3] = {rng.uniform(0, full + 1), rng.uniform(0, full + 1), rng.uniform(0, full + 1)};
+                if (kind == 1) {  // zeros in some channels, black included
+                    for (int& c : v) c = rng.uniform(0, 2) ? 0 : c;
+                } else if (kind == 2) {  // the extremes
+                    for (int& c : v) c = std::vector<int>{0, 1, full - 1, full}[rng.uniform(0, 4)];
+                } else if (kind == 3) {  // a ratio at or next to a limit: num = limit * den + -1, 0, 1
+                    const double x = std::min(limits[rng.uniform(0, static_cast<int>(limits.size()))], 1e6);
+                    const int num = rng.uniform(0, 3) == 0 ? 1 : 2;  // R, or B as numerator
+                    const int den = num == 2 ? rng.uniform(0, 2) : 1;  // R/B or R/G; B/G
+                    v[den] = rng.uniform(0, 4) == 0 ? rng.uniform(0, 4) : rng.uniform(1, full + 1);
+                    const double n = std::round(x * v[den]) + rng.uniform(-1, 2);
+                    v[num] = static_cast<int>(std::clamp(n, 0.0, static_cast<double>(full)));
+                } else if (kind == 4 && !sums.empty()) {  // the sum at or next to a band or range edge
+                    const int s = static_cast<int>(sums[rng.uniform(0, static_cast<int>(sums.size()))]) +
+                                  rng.uniform(-1, 2);
+                    v[0] = rng.uniform(0, std::max(1, s / 3 + 1));
+                    v[1] = rng.uniform(0, std::max(1, s / 3 + 1));
+                    v[2] = std::clamp(s - v[0] - v[1], 0, full);
+                } else if (kind == 5) {  // small samples: small ratios' denominators
+                    for (int& c : v) c = rng.uniform(0, 4);
+                }
+                return cv::Vec<int, 3>(v[0], v[1], v[2]);
+            };
+            int passed = 0, failed = 0;
+            for (int width = 1; width <= 40; ++width) {
+                cv::Mat image(5, width, bits == 8 ? CV_8UC3 : CV_16UC3);
+                for (int y = 0; y < image.rows; ++y)
+                    for (int x = 0; x < width; ++x) {
+                        const cv::Vec<int, 3> p = sample();
+                        if (bits == 8) image.at<cv::Vec3b>(y, x) = cv::Vec3b(p[0], p[1], p[2]);
+                        else image.at<cv::Vec3w>(y, x) = cv::Vec3w(p[0], p[1], p[2]);
+                    }
+                const cv::Mat mask = filterOne(image, bits, t);
+                for (int y = 0; y < image.rows; ++y)
+                    for (int x = 0; x < width; ++x) {
+                        std::int64_t b, g, r;
+                        if (bits == 8) {
+                            const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+                            b = p[0], g = p[1], r = p[2];
+                        } else {
+                            const cv::Vec3w p = image.at<cv::Vec3w>(y, x);
+                            b = p[0], g = p[1], r = p[2];
+                        }
+                        const bool expected = referencePasses(t, b, g, r);
+                        (expected ? passed : failed) += 1;
+                        ASSERT_EQ(mask.at<std::uint8_t>(y, x), expected ? 255 : 0)
+                            << bits << "-bit pixel (" << b << ", " << g << ", " << r << ") at " << x << "," << y
+                            << " of width " << width << ", type R/G " << t.redGreen.min << ".." << t.redGreen.max;
+                    }
+            }
+            // Both verdicts are well represented, or the comparison proves little.
+            EXPECT_GT(passed, 100) << bits << "-bit, type R/G " << t.redGreen.min;
+            EXPECT_GT(failed, 100) << bits << "-bit, type R/G " << t.redGreen.min;
+        }
+    }
+}
+
 }  // namespace avatar
