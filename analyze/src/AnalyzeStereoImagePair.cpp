@@ -63,7 +63,8 @@ AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
     }
     detail::fuseFrontEnd(stages_);
     worker_ = std::make_unique<Worker>();
-    tracker_ = std::make_unique<detail::RegionTracker>(config_.analysis.tracking);
+    tracker_ = std::make_unique<detail::RegionTracker>(config_.analysis.tracking,
+                                                      config_.analysis.coarseToFine.enabled);
     logging::category("analyze").info("pipeline: %zu stages, %zu target types", stages_.size(),
                                       config_.targets.targets.size());
 }

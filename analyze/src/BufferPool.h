@@ -12,6 +12,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include <cstddef>
+#include <cstring>
 #include <vector>
 
 namespace avatar::detail {
@@ -44,7 +45,7 @@ private:
             if (k.buffer.size() == size && k.buffer.type() == type && k.buffer.u != nullptr &&
                 k.buffer.u->refcount == 1) {
                 if (zeroOutside)
-                    for (const cv::Rect& r : k.written) k.buffer(r).setTo(0);
+                    for (const cv::Rect& r : uncovered(k.written, willWrite)) clear(k.buffer, r);
                 k.written = willWrite;
                 return k.buffer;
             }
@@ -63,6 +64,36 @@ private:
                 }
         }
         return fresh;
+    }
+
+    /// The parts of @p rects outside every rectangle of @p cover (each cut
+    /// into at most four bands per covering rectangle): what is written again
+    /// need not be cleared first.
+    static std::vector<cv::Rect> uncovered(std::vector<cv::Rect> rects, const std::vector<cv::Rect>& cover) {
+        for (const cv::Rect& c : cover) {
+            std::vector<cv::Rect> left;
+            for (const cv::Rect& r : rects) {
+                const cv::Rect i = r & c;
+                if (i.empty()) {
+                    left.push_back(r);
+                    continue;
+                }
+                const cv::Rect bands[4] = {{r.x, r.y, r.width, i.y - r.y},                               // above
+                                           {r.x, i.y + i.height, r.width, r.y + r.height - i.y - i.height},  // below
+                                           {r.x, i.y, i.x - r.x, i.height},                              // left
+                                           {i.x + i.width, i.y, r.x + r.width - i.x - i.width, i.height}};  // right
+                for (const cv::Rect& b : bands)
+                    if (b.width > 0 && b.height > 0) left.push_back(b);
+            }
+            rects = std::move(left);
+        }
+        return rects;
+    }
+
+    /// Zeroes @p r of @p m, a row at a time (cheaper than setTo on a view).
+    static void clear(cv::Mat& m, const cv::Rect& r) {
+        const std::size_t pixel = m.elemSize(), bytes = static_cast<std::size_t>(r.width) * pixel;
+        for (int y = r.y; y < r.y + r.height; ++y) std::memset(m.ptr(y) + r.x * pixel, 0, bytes);
     }
 
     std::size_t maxKept_;

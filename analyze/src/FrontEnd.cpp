@@ -44,6 +44,33 @@ AVATAR_KERNEL_CLONES void lightRow(float* __restrict row, const float* __restric
     }
 }
 
+/// loadRow then lightRow in one loop (the same operations): the samples and
+/// their factors are read once, the row written once.
+template <typename S>
+AVATAR_KERNEL_CLONES void loadLitRow(const S* __restrict in, const float* __restrict factor, float* __restrict out,
+                                     int n, float full) {
+    for (int i = 0; i < n; ++i) {
+        const float v = std::min(static_cast<float>(static_cast<std::int32_t>(in[i])) * factor[i], full);
+        out[i] = static_cast<float>(static_cast<std::int32_t>(v + 0.5f));
+    }
+}
+
+/// Mosaic row @p y of @p in, columns [x, x + n), as floats into @p dst:
+/// byte-swapped when asked, corrected by its sites' factors when there are any.
+template <typename S>
+void loadSites(const FrontEndInput& in, int y, int x, float* dst, int n, float full) {
+    const float* factor = in.factors != nullptr ? in.factors->ptr<float>(y) + x : nullptr;
+    if constexpr (sizeof(S) == 2) {
+        if (in.endianSwap) {
+            swapRow(in.mosaic.ptr<std::uint16_t>(y) + x, dst, n);
+            if (factor != nullptr) lightRow(dst, factor, n, full);
+            return;
+        }
+    }
+    if (factor != nullptr) loadLitRow(in.mosaic.ptr<S>(y) + x, factor, dst, n, full);
+    else loadRow(in.mosaic.ptr<S>(y) + x, dst, n);
+}
+
 /// Bilinear demosaic of one row (interior columns 1..n-2), as cv::cvtColor's
 /// integer formulas: a sample keeps its own colour; at a green site the
 /// horizontal neighbours give the row's other colour ((a+b+1)>>1) and the
@@ -185,14 +212,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
             if (source != lastSource) {
                 while (loaded < source + 1) {
                     ++loaded;
-                    float* dst = mosaicRow[loaded % 3] + o;
-                    if constexpr (sizeof(S) == 2) {
-                        if (in.endianSwap) swapRow(mosaic.ptr<std::uint16_t>(loaded) + o, dst, m);
-                        else loadRow(mosaic.ptr<S>(loaded) + o, dst, m);
-                    } else {
-                        loadRow(mosaic.ptr<S>(loaded) + o, dst, m);
-                    }
-                    if (in.factors != nullptr) lightRow(dst, in.factors->ptr<float>(loaded) + o, m, full);
+                    loadSites<S>(in, loaded, c0, mosaicRow[loaded % 3] + o, m, full);
                 }
                 const int parity = source & 1;
                 float* own = demosaiced[ownColour[parity]];
@@ -273,7 +293,97 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
         out.visibility.reset();
 }
 
+/// Every second sample of @p in (the sites of one colour in a mosaic row).
+AVATAR_KERNEL_CLONES void pickRow(const float* __restrict in, float* __restrict out, int n) {
+    for (int i = 0; i < n; ++i) out[i] = in[2 * i];
+}
+
+/// The mean of two green sites of each block, rounded half up.
+AVATAR_KERNEL_CLONES void greenRow(const float* __restrict a, const float* __restrict b, float* __restrict out,
+                                   int n) {
+    for (int i = 0; i < n; ++i) out[i] = static_cast<float>(static_cast<std::int32_t>((a[2 * i] + b[2 * i] + 1.0f) * 0.5f));
+}
+
+template <typename S>
+void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, CoarseResult& out) {
+    const cv::Mat& mosaic = in.mosaic;
+    const int w = mosaic.cols, cw = w / 2, ch = mosaic.rows / 2;
+    const std::size_t n = static_cast<std::size_t>(w), half = static_cast<std::size_t>(cw);
+    prepareImage(out.bgr, {cw, ch}, CV_MAKETYPE(mosaic.depth(), 3));
+    out.masks.resize(tests.size());
+    for (cv::Mat& mask : out.masks) prepareImage(mask, {cw, ch}, CV_8UC1);
+    std::vector<float> rows(2 * n + 6 * half, 0.0f);
+    float* site[2] = {rows.data(), rows.data() + n};
+    float* planes[3] = {rows.data() + 2 * n, rows.data() + 2 * n + half, rows.data() + 2 * n + 2 * half};
+    float* sums[3] = {planes[2] + half, planes[2] + 2 * half, planes[2] + 3 * half};
+    // The visibility from the superpixels, as the whole pass measures it from
+    // its pixels: saturated ones counted, 2x2 superpixel means as its 4x4 ones.
+    const bool measure = in.visibility && cw % 2 == 0 && ch % 2 == 0 && cw >= 2 && ch >= 2;
+    std::int64_t saturated = 0;
+    if (measure) out.reduced.create(ch / 2, cw / 2, CV_MAKETYPE(mosaic.depth(), 3));
+    // Where in a block each colour lies: (column, row) of red and blue, the two greens.
+    cv::Point red, blue, greens[2];
+    int g = 0;
+    for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+            const int c = bayerSiteColour(in.pattern, i, j);
+            if (c == 2) red = {i, j};
+            else if (c == 0) blue = {i, j};
+            else greens[g++] = {i, j};
+        }
+    std::vector<std::uint8_t> scratch(half);
+    std::vector<S> samplePlanes(3 * half);
+    const float full = static_cast<float>((1 << in.bitDepth) - 1);
+    for (int y = 0; y < ch; ++y) {
+        for (int j = 0; j < 2; ++j) loadSites<S>(in, 2 * y + j, 0, site[j], w, full);
+        pickRow(site[red.y] + red.x, planes[2], cw);
+        pickRow(site[blue.y] + blue.x, planes[0], cw);
+        greenRow(site[greens[0].y] + greens[0].x, site[greens[1].y] + greens[1].x, planes[1], cw);
+        storeRow(planes[0], planes[1], planes[2], samplePlanes.data(), out.bgr.ptr<S>(y), cw);
+        if (measure) {
+            saturated += countSaturated(planes[0], planes[1], planes[2], cw, full);
+            for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], cw);
+            if (y % 2 == 1) {  // 2x2 superpixels: the 4x4 blocks of the whole pass's reduction
+                for (int c = 0; c < 3; ++c) {
+                    S* dst = out.reduced.ptr<S>(y / 2) + c;
+                    const float* sum = sums[c];
+                    for (int x = 0; x < cw / 2; ++x) {
+                        const auto v = static_cast<std::uint32_t>(static_cast<std::int32_t>(sum[2 * x] + sum[2 * x + 1]));
+                        dst[3 * x] = static_cast<S>((v + 2u) >> 2);
+                    }
+                    std::fill(sums[c], sums[c] + cw, 0.0f);
+                }
+            }
+        }
+        for (std::size_t t = 0; t < tests.size(); ++t) {
+            std::uint8_t* mask = out.masks[t].ptr<std::uint8_t>(y);
+            const cv::Rect& win = tests[t].window();
+            std::memset(mask, 0, half);
+            if (y < win.y || y >= win.y + win.height) continue;
+            tests[t].row(planes[0] + win.x, planes[1] + win.x, planes[2] + win.x, mask + win.x, win.width,
+                         scratch.data());
+        }
+    }
+    if (measure)
+        out.visibility = visibilityFromReduced(out.reduced, in.bitDepth, saturated,
+                                               static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch),
+                                               &out.visibilityScratch);
+    else if (in.visibility)
+        out.visibility = measureVisibility(out.bgr, in.bitDepth);
+    else
+        out.visibility.reset();
+}
+
 }  // namespace
+
+void runCoarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, CoarseResult& out) {
+    if (!frontEndHandles(in.mosaic))
+        throw InvalidArgument("coarse pass: needs an 8- or 16-bit one-channel mosaic of at least 4x4");
+    if (in.mosaic.depth() == CV_8U)
+        coarse<std::uint8_t>(in, tests, out);
+    else
+        coarse<std::uint16_t>(in, tests, out);
+}
 
 bool frontEndHandles(const cv::Mat& mosaic) {
     return mosaic.channels() == 1 && (mosaic.depth() == CV_8U || mosaic.depth() == CV_16U) && mosaic.cols >= 4 &&

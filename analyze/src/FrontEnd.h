@@ -67,6 +67,25 @@ struct FrontEndResult {
     bool masksZeroOutsideRegions{false};
 };
 
+/// What the 2x2-superpixel pass of coarse-to-fine gives (docs/config.md).
+struct CoarseResult {
+    std::vector<cv::Mat> masks;  ///< one per test, CV_8UC1 0/255, half the mosaic's size (rounded down)
+    cv::Mat bgr;                 ///< the superpixels, the mosaic's depth
+    /// With FrontEndInput::visibility: the measures from the superpixels
+    /// (saturated ones, and their 2x2 means as the whole pass's 4x4 ones).
+    std::optional<VisibilityMeasures> visibility;
+    cv::Mat reduced;                      ///< scratch kept across frames
+    VisibilityScratch visibilityScratch;  ///< likewise
+};
+
+/// The coarse pass of coarse-to-fine: each 2x2 block of mosaic sites one
+/// pixel, its red and its blue site and the mean of its two greens (rounded
+/// half up), every site first corrected by its lighting factor as in
+/// runFrontEnd(); @p tests, compiled for the half size (windows halved),
+/// judge the superpixels. Only a search: where a target may be, found at a
+/// quarter of the pixels. @p in's tests and regions are ignored.
+void runCoarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, CoarseResult& out);
+
 /// Whether the fused pass takes this mosaic: 8 or 16-bit, one channel, at
 /// least 4x4 pixels (smaller images go through the stages one by one).
 bool frontEndHandles(const cv::Mat& mosaic);

@@ -53,7 +53,10 @@ std::vector<cv::Rect> regionsAround(const std::vector<cv::Rect>& boxes, int marg
 }
 
 void RegionTracker::begin(AnalysisFrame& frame) const {
-    if (!config_.enabled || next_[0].empty() || next_[1].empty()) return;
+    if (!config_.enabled || next_[0].empty() || next_[1].empty()) {
+        frame.coarse = coarse_;
+        return;
+    }
     frame.regions = next_;
     for (std::size_t i = 0; i < 2; ++i) frame.images[i].visibility = visibility_[i];
 }
@@ -61,7 +64,7 @@ void RegionTracker::begin(AnalysisFrame& frame) const {
 void RegionTracker::end(const AnalysisFrame& frame) {
     if (!config_.enabled) return;
     log4cpp::Category& log = logging::category("analyze");
-    const bool tracking = frame.tracking();
+    const bool tracking = frame.tracking() && !frame.coarse;  // a coarse frame's regions are its own
     std::size_t whole = 0;
     bool partial = false;
     for (const VisionTarget& t : frame.result.targets) {

@@ -25,11 +25,13 @@ namespace avatar::detail {
 
 class RegionTracker {
 public:
-    explicit RegionTracker(const TrackingConfig& config) : config_(config) {}
+    /// @param coarseToFine whether whole-image frames are searched coarse-to-fine (AnalysisFrame::coarse)
+    RegionTracker(const TrackingConfig& config, bool coarseToFine) : config_(config), coarse_(coarseToFine) {}
 
     /// Sets up @p frame (acquired pair and layout already set) for this
     /// iteration: its regions (none: the whole image) and, for a tracking
-    /// frame, the last whole image's visibility measures.
+    /// frame, the last whole image's visibility measures; a whole-image frame
+    /// is marked coarse when coarse-to-fine is on.
     void begin(AnalysisFrame& frame) const;
 
     /// Learns from the analysed @p frame where the next one is searched.
@@ -40,6 +42,7 @@ public:
 
 private:
     TrackingConfig config_;
+    bool coarse_;
     std::array<std::vector<cv::Rect>, 2> next_;  ///< empty: the whole image
     std::array<VisibilityMeasures, 2> visibility_;
     std::size_t followed_{0};  ///< whole stereo targets the regions were made for

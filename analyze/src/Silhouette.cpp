@@ -56,8 +56,21 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     // the background reaches around the feature.
     cv::Mat frame(roi.height + 2, roi.width + 2, CV_8UC1, cv::Scalar(kBackground));
     cv::Mat lab = frame(cv::Rect(1, 1, roi.width, roi.height));
-    cv::Mat own = ownMask(roi) != 0;
-    lab.setTo(cv::Scalar(255), own);
+    // One loop per step over the region's rows (each a cv::compare and a
+    // masked setTo before, with their temporaries: the region is small and
+    // this runs for every view of every target, every frame).
+    const auto eachPixel = [&](auto&& step) {
+        for (int y = 0; y < roi.height; ++y) {
+            std::uint8_t* l = lab.ptr<std::uint8_t>(y);
+            for (int x = 0; x < roi.width; ++x) step(l[x], x, y);
+        }
+    };
+    for (int y = 0; y < roi.height; ++y) {
+        const std::uint8_t* m = ownMask.ptr<std::uint8_t>(roi.y + y) + roi.x;
+        std::uint8_t* l = lab.ptr<std::uint8_t>(y);
+        for (int x = 0; x < roi.width; ++x)
+            if (m[x] != 0) l[x] = 255;
+    }
     const cv::Point seed = feature.boundary[kTopLeft] - roi.tl();
     if (!cv::Rect(0, 0, roi.width, roi.height).contains(seed) || lab.at<std::uint8_t>(seed) != 255) return out;
     cv::floodFill(lab, seed, cv::Scalar(kFeature), nullptr, cv::Scalar(), cv::Scalar(), 8);
@@ -73,13 +86,23 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 const cv::Rect r = f.box & roi;
                 if (!r.empty()) inBoxes(r - roi.tl()).setTo(cv::Scalar(255));
             }
-        const cv::Mat pixels = ownType ? (lab == 255) : ((masks[m](roi) != 0) & (lab != kFeature));
-        lab.setTo(cv::Scalar(kOther), pixels & inBoxes);
-        lab.setTo(cv::Scalar(kFragment), pixels & ~inBoxes & (lab != kOther));
+        const cv::Mat& mask = masks[m];
+        eachPixel([&](std::uint8_t& l, int x, int y) {
+            const bool pixel = ownType ? l == 255 : (mask.at<std::uint8_t>(roi.y + y, roi.x + x) != 0 && l != kFeature);
+            if (!pixel) return;
+            if (inBoxes.at<std::uint8_t>(y, x) != 0) l = kOther;
+            else if (l != kOther) l = kFragment;
+        });
     }
-    lab.setTo(cv::Scalar(kFragment), lab == 255);  // a compound's union apart from its seed's part
+    eachPixel([](std::uint8_t& l, int, int) {
+        if (l == 255) l = kFragment;  // a compound's union apart from its seed's part
+    });
     cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
-    lab.setTo(cv::Scalar(kFeature), lab == kBackground);  // holes join the feature
+    cv::Mat isFeature(roi.size(), CV_8UC1);
+    eachPixel([&](std::uint8_t& l, int x, int y) {
+        if (l == kBackground) l = kFeature;  // holes join the feature
+        isFeature.at<std::uint8_t>(y, x) = l == kFeature ? 255 : 0;
+    });
 
     cv::Mat image;
     bgr(roi).convertTo(image, CV_32FC3);
@@ -93,8 +116,8 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     // noise of one pixel inside the target (pixels two apart, which
     // demosaicing leaves nearly independent).
     cv::Mat inner, near;
-    cv::erode(lab == kFeature, inner, cv::Mat::ones(5, 5, CV_8UC1));
-    cv::dilate(lab == kFeature, near, cv::Mat::ones(5, 5, CV_8UC1));
+    cv::erode(isFeature, inner, cv::Mat::ones(5, 5, CV_8UC1));
+    cv::dilate(isFeature, near, cv::Mat::ones(5, 5, CV_8UC1));
     cv::Vec3d targetSum(0, 0, 0), backgroundSum(0, 0, 0), diffSq(0, 0, 0);
     int targetCount = 0, backgroundCount = 0, diffCount = 0;
     for (int y = 0; y < roi.height; ++y) {

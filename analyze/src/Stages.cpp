@@ -3,6 +3,7 @@
 
 #include "BufferPool.h"
 #include "FrontEnd.h"
+#include "RegionTracker.h"
 #include "TargetAssembly.h"
 
 #include <avatar/analyze/ImageColorFilter.h>
@@ -64,6 +65,7 @@ public:
     bool independentSides() const override { return true; }
     explicit DemosaicStage(const StageContext& c)
         : swap_(c.config.camera.endianSwap),
+          coarseMargin_(c.config.analysis.coarseToFine.marginPx),
           method_(c.config.analysis.demosaic == DemosaicAlgorithm::EdgeAware ? DemosaicMethod::EdgeAware
                                                                              : DemosaicMethod::Bilinear) {}
     std::string_view name() const override { return "demosaic"; }
@@ -87,13 +89,20 @@ private:
         return frame.layout.format == PixelFormat::Bayer && detail::frontEndHandles(frame.original.image(Side::Left));
     }
 
+    /// The coarse pass of a coarse frame: @p side's regions from what it finds
+    /// (none found: the whole image), and the visibility from its superpixels.
+    void searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in);
+
     bool swap_;
+    int coarseMargin_;
     DemosaicMethod method_;
     LightingStage* lighting_{nullptr};
     ColorFilterStage* filter_{nullptr};
     VisibilityStage* visibility_{nullptr};
     // Built in prepare() for the frame's geometry, read by both sides.
     std::vector<detail::ColorTest> tests_;
+    std::vector<detail::ColorTest> coarseTests_;  ///< the same at half the size (windows halved)
+    std::vector<TargetType> coarseTypes_;         ///< the types with what a coarse feature needs
     cv::Size testsSize_;
     int testsDepth_{-1}, testsBits_{-1};
     // Per side: buffers reused across frames.
@@ -101,6 +110,7 @@ private:
     std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
     std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
     std::array<detail::VisibilityScratch, 2> visibilityScratch_;
+    std::array<detail::CoarseResult, 2> coarse_;
 };
 
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
@@ -337,7 +347,25 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
     const int depth = frame.original.image(Side::Left).depth();
     if (filter_ != nullptr && (size != testsSize_ || depth != testsDepth_ || frame.layout.bitDepth != testsBits_)) {
         tests_.clear();
-        for (const TargetType& t : filter_->types()) tests_.emplace_back(t, size, depth, frame.layout.bitDepth);
+        coarseTests_.clear();
+        coarseTypes_.clear();
+        const cv::Size half(size.width / 2, size.height / 2);
+        for (const TargetType& t : filter_->types()) {
+            tests_.emplace_back(t, size, depth, frame.layout.bitDepth);
+            // A coarse feature only says where to look: a sixteenth of the
+            // least area (a quarter of the pixels, and the edges' mixed
+            // superpixels), any shape, in the window halved.
+            TargetType c = t;
+            if (!c.window.wholeImage()) {
+                c.window = {c.window.x / 2, c.window.y / 2, (c.window.x + c.window.width + 1) / 2 - c.window.x / 2,
+                            (c.window.y + c.window.height + 1) / 2 - c.window.y / 2};
+            }
+            c.area = {std::max(1.0, t.area.min / 16.0), 1e18};
+            c.aspectRatio = {0.0, 1e18};
+            c.areaRatio = {0.0, 1.0};
+            if (half.width >= 1 && half.height >= 1) coarseTests_.emplace_back(c, half, depth, frame.layout.bitDepth);
+            coarseTypes_.push_back(c);
+        }
         testsSize_ = size;
         testsDepth_ = depth;
         testsBits_ = frame.layout.bitDepth;
@@ -364,6 +392,9 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
                                                                            : nullptr;
     in.tests = filter_ != nullptr ? &tests_ : nullptr;
     in.visibility = visibility_ != nullptr;
+    if (frame.coarse && frame.regionsOf(side).empty() && in.tests != nullptr && !tests_.empty() &&
+        coarseTests_.size() == tests_.size())
+        searchCoarse(frame, side, in);
     const std::vector<cv::Rect>& regions = frame.regionsOf(side);
     in.regions = &regions;
     detail::FrontEndResult out;
@@ -382,8 +413,21 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     work.image = std::move(out.bgr);
     if (in.tests != nullptr) work.masks = std::move(out.masks);
     if (out.visibility) work.visibility = *out.visibility;
+    else if (frame.coarse && !regions.empty() && coarse_[i].visibility)
+        work.visibility = *coarse_[i].visibility;
     reduced_[i] = std::move(out.reduced);
     visibilityScratch_[i] = std::move(out.visibilityScratch);
+}
+
+void DemosaicStage::searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in) {
+    const std::size_t i = side == Side::Left ? 0 : 1;
+    detail::CoarseResult& coarse = coarse_[i];
+    detail::runCoarse(in, coarseTests_, coarse);
+    std::vector<cv::Rect> boxes;
+    for (std::size_t t = 0; t < coarseTests_.size(); ++t)
+        for (const Feature& f : locateFeatures(coarse.masks[t], cv::Mat(), coarseTypes_[t], coarseTests_[t].window()))
+            boxes.emplace_back(2 * f.box.x, 2 * f.box.y, 2 * f.box.width, 2 * f.box.height);
+    frame.regions[i] = detail::regionsAround(boxes, coarseMargin_, frame.original.size());
 }
 
 }  // namespace

@@ -603,8 +603,17 @@ TrackingConfig readTracking(Reader& r, const XMLElement* el, const std::string& 
     return t;
 }
 
+CoarseToFineConfig readCoarseToFine(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"enabled", "marginPx"});
+    CoarseToFineConfig c;
+    c.enabled = s.get("enabled", readBool);
+    s.getOptional("marginPx", c.marginPx, readInt);
+    return c;
+}
+
 AnalysisConfig readAnalysis(Reader& r, const XMLElement* el, const std::string& path) {
-    const Section s(r, el, path, {"stages", "demosaic", "centroid", "triangulation", "visibility", "tracking"});
+    const Section s(r, el, path,
+                    {"stages", "demosaic", "centroid", "triangulation", "visibility", "tracking", "coarseToFine"});
     AnalysisConfig a;
     s.getOptional("stages", a.stages, readWords);
     s.getOptional("demosaic", a.demosaic, readEnum<DemosaicAlgorithm>);
@@ -612,6 +621,7 @@ AnalysisConfig readAnalysis(Reader& r, const XMLElement* el, const std::string& 
     s.getOptional("triangulation", a.triangulation, readEnum<TriangulationMode>);
     s.getOptional("visibility", a.visibility, readVisibility);
     s.getOptional("tracking", a.tracking, readTracking);
+    s.getOptional("coarseToFine", a.coarseToFine, readCoarseToFine);
     return a;
 }
 

@@ -447,6 +447,7 @@ void validateAnalysis(const Checker& k, const AnalysisConfig& a) {
     // (the silhouette's edge profiles, the erosion's reach): 8 px at least.
     k.intBetween(a.tracking.fullFrameEvery, 1, 1000000, p + "/tracking/fullFrameEvery");
     k.intBetween(a.tracking.marginPx, 8, 100000, p + "/tracking/marginPx");
+    k.intBetween(a.coarseToFine.marginPx, 8, 100000, p + "/coarseToFine/marginPx");
 }
 
 void validateServo(const Checker& k, const ServoConfig& c, const TargetConfig* targets) {

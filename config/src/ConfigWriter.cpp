@@ -230,6 +230,10 @@ void writeAnalysis(Writer& w, const AnalysisConfig& a) {
     w.integer("fullFrameEvery", a.tracking.fullFrameEvery);
     w.integer("marginPx", a.tracking.marginPx);
     w.close();
+    w.open("coarseToFine");
+    w.boolean("enabled", a.coarseToFine.enabled);
+    w.integer("marginPx", a.coarseToFine.marginPx);
+    w.close();
     w.close();
 }
 

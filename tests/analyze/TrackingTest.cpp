@@ -3,7 +3,9 @@
 // whole-image search, frames are searched only around the targets found, and
 // there the result is what the whole image gives (targets field for field,
 // masks and image pixel for pixel); the whole image is searched again every
-// fullFrameEvery frames and after a target is lost.
+// fullFrameEvery frames and after a target is lost. And coarse-to-fine
+// (config.analysis.coarseToFine): a 2x2-superpixel search, then full
+// resolution only around what it found, with the full-resolution targets.
 
 #include "AccuracyHarness.h"
 #include "RegionTracker.h"
@@ -16,6 +18,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -196,4 +199,74 @@ TEST(Tracking, RegionsAroundBoxes) {
                                      {30, 10, 10, 10}},
                                     2, size),
               (std::vector<cv::Rect>{{8, 8, 134, 14}, {148, 8, 14, 14}}));
+}
+
+// Coarse-to-fine on the lab pair: the superpixel pass finds both targets, the
+// full-resolution pass around them gives the targets of a whole-image search
+// field for field (centroids equal, not only within 0.05 px).
+TEST(CoarseToFine, GivesTheFullResolutionTargets) {
+    const Lab lab;
+    AvatarConfig config = lab.config;
+    config.analysis.coarseToFine.enabled = true;
+    AnalyzeStereoImagePair coarse(config), plain(lab.config);
+    const StereoImagePair pair = lab.pair({0, 0, 0}, 11);
+    const VisionTargets c = coarse.analyze(pair, 0);
+    const VisionTargets w = plain.analyze(pair, 0);
+    ASSERT_TRUE(coarse.lastFrame().coarse);
+    EXPECT_FALSE(plain.lastFrame().coarse);
+    ASSERT_EQ(wholeTargets(w), 2);
+    ASSERT_EQ(c.targets.size(), w.targets.size());
+    for (std::size_t i = 0; i < w.targets.size(); ++i)
+        EXPECT_TRUE(c.targets[i] == w.targets[i]) << describe(c.targets[i]) << " vs " << describe(w.targets[i]);
+    EXPECT_EQ(c.visibility, w.visibility);  // from the superpixels: the same verdict here
+    for (const Side side : {Side::Left, Side::Right}) {
+        double area = 0.0;
+        for (const cv::Rect& r : coarse.lastFrame().regionsOf(side)) area += r.area();
+        EXPECT_GT(area, 0.0);
+        EXPECT_LT(area, 0.1 * pair.size().area());
+    }
+}
+
+// On varied lab scenes (spheres and discs at 0.5-1 m, distractors, occluders,
+// targets at the border): every target a whole-image search reports whole is
+// reported, field for field, by the coarse-to-fine search.
+TEST(CoarseToFine, FindsEveryWholeTargetOfVariedScenes) {
+    const AvatarConfig scorpion = readConfigFile(accuracy::dataDir() / "config/scorpion.xml");
+    const render::SensorFormat sensor = render::sensorFormatFrom(scorpion.camera);
+    const accuracy::SetDefinition set = accuracy::standardSets().front();
+    const accuracy::SetConfigs configs = accuracy::makeConfigs(set);
+    AvatarConfig coarseConfig = configs.centroid;
+    coarseConfig.analysis.coarseToFine.enabled = true;
+    AnalyzeStereoImagePair coarse(coarseConfig), plain(configs.centroid);
+    const auto scenes = accuracy::makeScenes(set, 4, 21, scorpion.stereo, sensor);
+    int compared = 0;
+    for (std::size_t k = 0; k < scenes.size(); ++k) {
+        render::RenderOptions options;
+        options.sensor = sensor;
+        options.seed = 2100 + k;
+        const StereoImagePair pair = render::render(scenes[k], scorpion.stereo, options).pair;
+        const VisionTargets w = plain.analyze(pair, k);
+        const VisionTargets c = coarse.analyze(pair, k);
+        for (const VisionTarget& t : w.targets) {
+            if (!(t.flags & kTargetWhole)) continue;
+            ++compared;
+            const auto same = std::find_if(c.targets.begin(), c.targets.end(),
+                                           [&](const VisionTarget& o) { return o == t; });
+            EXPECT_NE(same, c.targets.end()) << "scene " << k << ": " << describe(t) << " not found the same";
+        }
+    }
+    EXPECT_GE(compared, 8);
+}
+
+// Nothing in the superpixels: the image is searched whole, and still nothing is found.
+TEST(CoarseToFine, NothingCoarseSearchesTheWholeImage) {
+    Lab lab;
+    lab.config.analysis.coarseToFine.enabled = true;
+    AnalyzeStereoImagePair coarse(lab.config);
+    const cv::Mat grey(lab.config.camera.height, lab.config.camera.width, CV_16UC1, cv::Scalar(9000));
+    const StereoImagePair pair(grey, grey.clone(), {PixelFormat::Bayer, BayerPattern::BG, 16}, {1, 1, {}, {}});
+    EXPECT_EQ(coarse.analyze(pair, 0).targets.size(), 0u);
+    EXPECT_TRUE(coarse.lastFrame().coarse);
+    EXPECT_FALSE(coarse.lastFrame().tracking());
+    EXPECT_EQ(coarse.lastFrame().result.visibility, Visibility::Poor);  // measured on the whole image: no contrast
 }

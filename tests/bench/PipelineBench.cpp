@@ -25,6 +25,11 @@
 //   PipelineVsBaseline/<input> both, interleaved per iteration: the time is the
 //                             chain's; counters give the baseline's median and
 //                             the ratio baseline / chain measured under the same load.
+//   Tracking/lab_1280x960/full_every:N  the tracking mode on one thread, a
+//                             whole image every N frames (1000000: tracking
+//                             frames only); CPU per pair from lastCpuTimings().
+//   TrackingCoarse/...        the same with the whole-image frames coarse-to-fine.
+//   CoarseToFine/<input>      every frame coarse-to-fine (no tracking), one thread.
 //   FirstFrame/<input>        a new AnalyzeStereoImagePair and its first
 //                             analysis (lighting factors built, buffers faulted
 //                             in): what a short run such as avatar-analyze on a
@@ -453,6 +458,56 @@ void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel
     reportFound(state, f);
 }
 
+/// The tracking mode (config.analysis.tracking) on one thread: the lab pair
+/// again and again, a whole-image search every @p fullFrameEvery frames and
+/// the rest searched only around the two targets. Counters: the CPU time per
+/// pair (AnalyzeStereoImagePair::lastCpuTimings, median over all frames and
+/// over the tracking frames alone) and the share of the image searched.
+/// fullFrameEvery 0: tracking off. @p coarse: whole-image frames coarse-to-fine.
+void BM_Tracking(benchmark::State& state, const std::string& name, int fullFrameEvery, bool coarse) {
+    const Input& in = input(name);
+    AvatarConfig config = in.config;
+    config.analysis.tracking.enabled = fullFrameEvery > 0;
+    config.analysis.tracking.fullFrameEvery = std::max(fullFrameEvery, 1);
+    config.analysis.coarseToFine.enabled = coarse;
+    AnalyzeStereoImagePair chain(config);
+    chain.setParallel(false);
+    std::uint64_t iteration = 0;
+    for (int i = 0; i < 2; ++i) {  // a whole image, then a tracking frame: both must find what the scene holds
+        const Found f = found(chain, chain.analyze(in.pair, iteration++));
+        if (const std::string error = check(in, f); !error.empty()) {
+            state.SkipWithError(error.c_str());
+            return;
+        }
+    }
+    if (fullFrameEvery > 2 && !(chain.lastFrame().tracking() && !chain.lastFrame().coarse)) {
+        state.SkipWithError("the second frame was not a tracking frame");
+        return;
+    }
+    std::vector<double> cpu, trackingCpu, searched;
+    StageTimes times;
+    const long faults0 = minorFaults();
+    for (auto _ : state) {
+        const VisionTargets result = chain.analyze(in.pair, iteration++);
+        benchmark::DoNotOptimize(result.targets.data());
+        times.add(result);
+        const double ms = chain.lastCpuTimings().back().milliseconds;
+        cpu.push_back(ms);
+        double area = 0.0;
+        for (const cv::Rect& r : chain.lastFrame().regionsOf(Side::Left)) area += r.area();
+        if (chain.lastFrame().tracking()) {  // tracking or coarse: the share searched at full resolution
+            trackingCpu.push_back(ms);
+            searched.push_back(area / in.pair.size().area());
+        }
+    }
+    state.counters["faults"] = benchmark::Counter(static_cast<double>(minorFaults() - faults0),
+                                                  benchmark::Counter::kAvgIterations);
+    state.counters["cpu_ms"] = median(cpu);
+    state.counters["tracking_cpu_ms"] = median(trackingCpu);
+    state.counters["searched"] = median(searched);
+    times.report(state);
+}
+
 void BM_Baseline(benchmark::State& state, const std::string& name) {
     const Input& in = input(name);
     Baseline baseline(in.config);
@@ -612,6 +667,20 @@ void registerAll() {
             ->Unit(benchmark::kMillisecond)
             ->UseManualTime();
     }
+    for (const bool coarse : {false, true}) {
+        for (const int every : {1000000, 30})
+            benchmark::RegisterBenchmark(
+                ((coarse ? "TrackingCoarse/lab_1280x960/full_every:" : "Tracking/lab_1280x960/full_every:") +
+                 std::to_string(every))
+                    .c_str(),
+                BM_Tracking, std::string("lab_1280x960"), every, coarse)
+                ->Unit(benchmark::kMillisecond)
+                ->UseRealTime();
+    }
+    for (const std::string name : {"lab_1280x960", "synthetic_1280x960/n:10"})
+        benchmark::RegisterBenchmark(("CoarseToFine/" + name).c_str(), BM_Tracking, name, 0, true)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
     benchmark::RegisterBenchmark("FirstFrame/lab_1280x960", BM_FirstFrame, std::string("lab_1280x960"))
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();

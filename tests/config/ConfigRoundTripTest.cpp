@@ -274,6 +274,8 @@ std::vector<Mutation> mutations() {
     add("analysis.tracking.enabled", [](AvatarConfig& c) { c.analysis.tracking.enabled = true; });
     add("analysis.tracking.fullFrameEvery", [](AvatarConfig& c) { c.analysis.tracking.fullFrameEvery = 7; });
     add("analysis.tracking.marginPx", [](AvatarConfig& c) { c.analysis.tracking.marginPx = 80; });
+    add("analysis.coarseToFine.enabled", [](AvatarConfig& c) { c.analysis.coarseToFine.enabled = true; });
+    add("analysis.coarseToFine.marginPx", [](AvatarConfig& c) { c.analysis.coarseToFine.marginPx = 24; });
 
     // The servo tuning: every field, starting from a section of defaults
     // whose types name the configuration's targets.

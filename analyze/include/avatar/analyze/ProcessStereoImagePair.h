@@ -50,6 +50,11 @@ struct AnalysisFrame {
     /// images and masks there only (0 elsewhere), and features are located in
     /// each region as in a search window. Empty: the whole image.
     std::array<std::vector<cv::Rect>, 2> regions;
+    /// A whole-image frame searched coarse-to-fine (docs/config.md
+    /// "coarseToFine"): the demosaic stage searches each image on 2x2
+    /// superpixels first and sets that side's regions to what it found, so
+    /// the stages after it work at full resolution only there.
+    bool coarse{false};
 
     ImageWork& at(Side side) { return images[side == Side::Left ? 0 : 1]; }
     const ImageWork& at(Side side) const { return images[side == Side::Left ? 0 : 1]; }

@@ -51,6 +51,16 @@ struct TrackingConfig {
     }
 };
 
+/// Coarse-to-fine search: a whole-image frame is first searched on 2x2
+/// superpixels (a quarter of the pixels, no demosaic), then at full
+/// resolution only in regions around what that found, each its box widened
+/// by marginPx (docs/config.md "coarseToFine").
+struct CoarseToFineConfig {
+    bool enabled{false};
+    int marginPx{16};  ///< how far a full-resolution region reaches beyond a coarse feature's box
+    bool operator==(const CoarseToFineConfig& o) const { return enabled == o.enabled && marginPx == o.marginPx; }
+};
+
 struct AnalysisConfig {
     /// Stage names in order; see docs/config.md for the list and their rules.
     std::vector<std::string> stages{"demosaic",        "lighting", "color_filter", "erode_restore",
@@ -60,10 +70,12 @@ struct AnalysisConfig {
     TriangulationMode triangulation{TriangulationMode::Centroid};
     VisibilityConfig visibility;
     TrackingConfig tracking;
+    CoarseToFineConfig coarseToFine;
 
     bool operator==(const AnalysisConfig& o) const {
         return stages == o.stages && demosaic == o.demosaic && centroid == o.centroid &&
-               triangulation == o.triangulation && visibility == o.visibility && tracking == o.tracking;
+               triangulation == o.triangulation && visibility == o.visibility && tracking == o.tracking &&
+               coarseToFine == o.coarseToFine;
     }
 };
 
