@@ -104,13 +104,22 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         isFeature.at<std::uint8_t>(y, x) = l == kFeature ? 255 : 0;
     });
 
+    // 16-bit samples are read where they are (as floats, the same values a
+    // converted copy holds); any other depth through a float copy.
+    const bool wide = bgr.type() == CV_16UC3;
     cv::Mat image;
-    bgr(roi).convertTo(image, CV_32FC3);
+    if (!wide) bgr(roi).convertTo(image, CV_32FC3);
     const auto label = [&](int x, int y) -> int {  // region coordinates; -1 outside the region
         if (x < 0 || y < 0 || x >= roi.width || y >= roi.height) return -1;
         return lab.at<std::uint8_t>(y, x);
     };
-    const auto colour = [&](int x, int y) { return image.at<cv::Vec3f>(y, x); };
+    const auto colour = [&](int x, int y) -> cv::Vec3f {
+        if (wide) {
+            const cv::Vec3w& p = bgr.at<cv::Vec3w>(roi.y + y, roi.x + x);
+            return {static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
+        }
+        return image.at<cv::Vec3f>(y, x);
+    };
 
     // The target's and the background's colours away from the edge, and the
     // noise of one pixel inside the target (pixels two apart, which
@@ -120,7 +129,40 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     cv::dilate(isFeature, near, cv::Mat::ones(5, 5, CV_8UC1));
     cv::Vec3d targetSum(0, 0, 0), backgroundSum(0, 0, 0), diffSq(0, 0, 0);
     int targetCount = 0, backgroundCount = 0, diffCount = 0;
-    for (int y = 0; y < roi.height; ++y) {
+    if (wide) {
+        // Integer samples: every term below is an integer (a square rounded
+        // to float is one too) and every sum stays below 2^53, so integer
+        // sums give the very doubles of the float path, in any order.
+        std::int64_t ts[3] = {0, 0, 0}, bs[3] = {0, 0, 0}, ds[3] = {0, 0, 0};
+        for (int y = 0; y < roi.height; ++y) {
+            const std::uint8_t* in = inner.ptr<std::uint8_t>(y);
+            const std::uint8_t* nr = near.ptr<std::uint8_t>(y);
+            const std::uint8_t* lb = lab.ptr<std::uint8_t>(y);
+            const cv::Vec3w* px = bgr.ptr<cv::Vec3w>(roi.y + y) + roi.x;
+            for (int x = 0; x < roi.width; ++x) {
+                if (in[x]) {
+                    for (int c = 0; c < 3; ++c) ts[c] += px[x][c];
+                    ++targetCount;
+                    if (x + 2 < roi.width && in[x + 2]) {
+                        for (int c = 0; c < 3; ++c) {
+                            const float d = static_cast<float>(px[x][c]) - static_cast<float>(px[x + 2][c]);
+                            ds[c] += static_cast<std::int64_t>(d * d);
+                        }
+                        ++diffCount;
+                    }
+                } else if (!nr[x] && lb[x] == kOutside) {
+                    for (int c = 0; c < 3; ++c) bs[c] += px[x][c];
+                    ++backgroundCount;
+                }
+            }
+        }
+        for (int c = 0; c < 3; ++c) {
+            targetSum[c] = static_cast<double>(ts[c]);
+            backgroundSum[c] = static_cast<double>(bs[c]);
+            diffSq[c] = static_cast<double>(ds[c]);
+        }
+    }
+    for (int y = 0; y < (wide ? 0 : roi.height); ++y) {
         const std::uint8_t* in = inner.ptr<std::uint8_t>(y);
         const std::uint8_t* nr = near.ptr<std::uint8_t>(y);
         const std::uint8_t* lb = lab.ptr<std::uint8_t>(y);

@@ -154,6 +154,38 @@ TEST(ShapeModel, DiscCentreIsThePoleOfTheVanishingLineNotTheEllipseCentre) {
     EXPECT_GT(cv::norm(normalizedToPixel(cfg.stereo.left, ellipseCentreL) - *t.left.projectedCentrePx), 1.0);
 }
 
+// 16-bit samples are read in place with integer sums; any other depth goes
+// through a float copy. Both must give the same silhouette to the last bit.
+TEST(Silhouette, SixteenBitSamplesGiveWhatTheirFloatCopyGives) {
+    render::Scene scene = emptyLab();
+    scene.targets = {target("disc", render::Shape::Disc, {-150, -100, 600}, 35),
+                     target("sphere", render::Shape::Sphere, {120, 60, 750}, 30)};
+    const Outcome o = run(scene, config(TargetShape::Disc));
+    int compared = 0;
+    for (int s = 0; s < 2; ++s) {
+        const ImageWork& w = o.frame.at(s == 0 ? Side::Left : Side::Right);
+        ASSERT_EQ(w.image.type(), CV_16UC3);
+        ImageWork f = w;
+        w.image.convertTo(f.image, CV_32FC3);
+        for (const Feature& feature : w.features[0]) {
+            const auto a = detail::measureSilhouette(w, 0, feature, {0, 0, 1280, 960}, 1.0);
+            const auto b = detail::measureSilhouette(f, 0, feature, {0, 0, 1280, 960}, 1.0);
+            ASSERT_TRUE(a.subPixel);
+            EXPECT_EQ(a.area, b.area);
+            EXPECT_EQ(a.centroid, b.centroid);
+            EXPECT_EQ(a.coverageNoise, b.coverageNoise);
+            for (int i = 0; i < 4; ++i) EXPECT_EQ(a.centroidCovariance.val[i], b.centroidCovariance.val[i]);
+            ASSERT_EQ(a.outline.size(), b.outline.size());
+            for (std::size_t i = 0; i < a.outline.size(); ++i) {
+                EXPECT_EQ(a.outline[i].px, b.outline[i].px);
+                EXPECT_EQ(a.outline[i].sigmaPx, b.outline[i].sigmaPx);
+            }
+            ++compared;
+        }
+    }
+    EXPECT_GE(compared, 2);
+}
+
 // A sphere whose silhouette touches the last row is whole (border flag
 // only); one that continues past the edge is cut; one hidden in part behind
 // a grey rock in the left image only is occluded there; the sphere in front
