@@ -201,7 +201,9 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     const bool subPixel = haveColours && out.coverageNoise < 0.15;
     out.subPixel = subPixel;
 
-    double binaryArea = 0.0, sumX = 0.0, sumY = 0.0;
+    // Pixel counts and coordinate sums are integers: counted as such (the
+    // doubles they become are the sums a double accumulator gives exactly).
+    std::int64_t pixelCount = 0, pixelSumX = 0, pixelSumY = 0;
     double addedArea = 0.0, addedX = 0.0, addedY = 0.0;
     struct FreeEdge {
         cv::Point2d mid;
@@ -211,15 +213,17 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     const int wx0 = window.x - roi.x, wy0 = window.y - roi.y;
     const int wx1 = wx0 + window.width, wy1 = wy0 + window.height;
     for (int y = 0; y < roi.height; ++y) {
+        const std::uint8_t* row = lab.ptr<std::uint8_t>(y);
+        const std::uint8_t* above = y > 0 ? lab.ptr<std::uint8_t>(y - 1) : nullptr;
+        const std::uint8_t* below = y + 1 < roi.height ? lab.ptr<std::uint8_t>(y + 1) : nullptr;
         for (int x = 0; x < roi.width; ++x) {
-            if (lab.at<std::uint8_t>(y, x) != kFeature) continue;
-            binaryArea += 1.0;
-            sumX += x;
-            sumY += y;
+            if (row[x] != kFeature) continue;
+            ++pixelCount;
+            pixelSumX += x;
+            pixelSumY += y;
             // Most pixels are inside: no edge to look at.
-            if (x > 0 && y > 0 && x + 1 < roi.width && y + 1 < roi.height &&
-                lab.at<std::uint8_t>(y, x - 1) == kFeature && lab.at<std::uint8_t>(y, x + 1) == kFeature &&
-                lab.at<std::uint8_t>(y - 1, x) == kFeature && lab.at<std::uint8_t>(y + 1, x) == kFeature)
+            if (x > 0 && above != nullptr && x + 1 < roi.width && below != nullptr && row[x - 1] == kFeature &&
+                row[x + 1] == kFeature && above[x] == kFeature && below[x] == kFeature)
                 continue;
             for (const Direction& d : kDirections) {
                 const int qx = x + d.dx, qy = y + d.dy;
@@ -332,6 +336,8 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     }
     out.region = roi;
     out.labels = lab.clone();
+    const double binaryArea = static_cast<double>(pixelCount);
+    const double sumX = static_cast<double>(pixelSumX), sumY = static_cast<double>(pixelSumY);
     if (binaryArea <= 0.0) return out;
     out.area = binaryArea + addedArea;
     if (!(out.area > 0.0)) out.area = binaryArea;
