@@ -309,7 +309,11 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
     const cv::Mat& mosaic = in.mosaic;
     const int w = mosaic.cols, cw = w / 2, ch = mosaic.rows / 2;
     const std::size_t n = static_cast<std::size_t>(w), half = static_cast<std::size_t>(cw);
-    prepareImage(out.bgr, {cw, ch}, CV_MAKETYPE(mosaic.depth(), 3));
+    // The superpixel image itself only where the visibility is measured on it
+    // (a half size that the 2x2 reduction does not divide).
+    const bool keepImage = in.visibility && !(cw % 2 == 0 && ch % 2 == 0 && cw >= 2 && ch >= 2);
+    if (keepImage) prepareImage(out.bgr, {cw, ch}, CV_MAKETYPE(mosaic.depth(), 3));
+    else out.bgr.release();
     out.masks.resize(tests.size());
     for (cv::Mat& mask : out.masks) prepareImage(mask, {cw, ch}, CV_8UC1);
     std::vector<float> rows(2 * n + 6 * half, 0.0f);
@@ -339,7 +343,7 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
         pickRow(site[red.y] + red.x, planes[2], cw);
         pickRow(site[blue.y] + blue.x, planes[0], cw);
         greenRow(site[greens[0].y] + greens[0].x, site[greens[1].y] + greens[1].x, planes[1], cw);
-        storeRow(planes[0], planes[1], planes[2], samplePlanes.data(), out.bgr.ptr<S>(y), cw);
+        if (keepImage) storeRow(planes[0], planes[1], planes[2], samplePlanes.data(), out.bgr.ptr<S>(y), cw);
         if (measure) {
             saturated += countSaturated(planes[0], planes[1], planes[2], cw, full);
             for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], cw);

@@ -70,7 +70,9 @@ struct FrontEndResult {
 /// What the 2x2-superpixel pass of coarse-to-fine gives (docs/config.md).
 struct CoarseResult {
     std::vector<cv::Mat> masks;  ///< one per test, CV_8UC1 0/255, half the mosaic's size (rounded down)
-    cv::Mat bgr;                 ///< the superpixels, the mosaic's depth
+    /// The superpixels (the mosaic's depth), kept only when the visibility is
+    /// measured on them whole (a half size not divisible by 2); else empty.
+    cv::Mat bgr;
     /// With FrontEndInput::visibility: the measures from the superpixels
     /// (saturated ones, and their 2x2 means as the whole pass's 4x4 ones).
     std::optional<VisibilityMeasures> visibility;
