@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <fstream>
 #include <string>
 
 namespace avatar {
@@ -49,6 +50,47 @@ TEST(AvatarAnalyzeTimings, RepeatsEveryPairAndWritesTheMediansOfEveryStage) {
     EXPECT_GT(stages["demosaic"].at("cpu_ms_median").get<double>(), 0.0);
     // Medians do not add up exactly, but the stages are what the total is made of.
     EXPECT_NEAR(stagesCpu, cpu, 0.5 * cpu);
+}
+
+// The bundled session with tracking and coarse-to-fine on: the first frame
+// of each pair searched on superpixels, the repeats only around the targets;
+// every run must agree with the first (the tool checks) and print what the
+// whole-image search prints, for less CPU.
+TEST(AvatarAnalyzeTimings, TrackingAndCoarseToFinePrintTheWholeImageTargets) {
+    test::TempDir dir("analyze-tracking");
+    std::string xml = test::slurp(std::string(AVATAR_DATA_DIR) + "/config/scorpion.xml");
+    const std::string options =
+        "  <tracking><enabled>true</enabled><fullFrameEvery>30</fullFrameEvery></tracking>\n"
+        "    <coarseToFine><enabled>true</enabled></coarseToFine>\n  </analysis>";
+    const std::size_t at = xml.find("</analysis>");
+    ASSERT_NE(at, std::string::npos);
+    xml.replace(at, std::string("</analysis>").size(), options);
+    const std::string tracked = (dir / "tracked.xml").string();
+    std::ofstream(tracked) << xml;
+    const std::string plainFile = (dir / "plain.json").string(), trackedFile = (dir / "tracked.json").string();
+    const test::ToolRun plain = analyze(dir, "--config " + std::string(AVATAR_DATA_DIR) +
+                                                 "/config/scorpion.xml --repeat 4 --timings " + plainFile);
+    ASSERT_EQ(plain.status, 0) << plain.err;
+    const test::ToolRun fast = analyze(dir, "--config " + tracked + " --repeat 4 --timings " + trackedFile);
+    ASSERT_EQ(fast.status, 0) << fast.err;
+    const auto withoutTimings = [](const std::string& out) {
+        std::string kept;
+        std::size_t from = 0;
+        while (from < out.size()) {
+            std::size_t end = out.find('\n', from);
+            if (end == std::string::npos) end = out.size();
+            const std::string line = out.substr(from, end - from);
+            if (line.find("timings:") == std::string::npos) kept += line + "\n";
+            from = end + 1;
+        }
+        return kept;
+    };
+    EXPECT_EQ(withoutTimings(fast.out), withoutTimings(plain.out));
+    EXPECT_NE(plain.out.find("stereo,whole"), std::string::npos) << plain.out;
+    const double plainCpu = nlohmann::json::parse(test::slurp(plainFile)).at("total").at("cpu_ms_median").get<double>();
+    const double fastCpu = nlohmann::json::parse(test::slurp(trackedFile)).at("total").at("cpu_ms_median").get<double>();
+    EXPECT_GT(plainCpu, 0.0);
+    EXPECT_GT(fastCpu, 0.0);
 }
 
 TEST(AvatarAnalyzeTimings, RefusesARepeatBelowOne) {
