@@ -65,6 +65,7 @@ public:
     bool independentSides() const override { return true; }
     explicit DemosaicStage(const StageContext& c)
         : swap_(c.config.camera.endianSwap),
+          coarse_(c.config.analysis.coarseToFine.enabled),
           coarseMargin_(c.config.analysis.coarseToFine.marginPx),
           method_(c.config.analysis.demosaic == DemosaicAlgorithm::EdgeAware ? DemosaicMethod::EdgeAware
                                                                              : DemosaicMethod::Bilinear) {}
@@ -94,6 +95,7 @@ private:
     void searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in);
 
     bool swap_;
+    bool coarse_;  ///< whole-image frames coarse-to-fine: the half-size tests are built
     int coarseMargin_;
     DemosaicMethod method_;
     LightingStage* lighting_{nullptr};
@@ -110,7 +112,7 @@ private:
     std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
     std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
     std::array<detail::VisibilityScratch, 2> visibilityScratch_;
-    std::array<detail::CoarseResult, 2> coarse_;
+    std::array<detail::CoarseResult, 2> coarsePass_;
 };
 
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
@@ -352,6 +354,7 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
         const cv::Size half(size.width / 2, size.height / 2);
         for (const TargetType& t : filter_->types()) {
             tests_.emplace_back(t, size, depth, frame.layout.bitDepth);
+            if (!coarse_ || half.width < 1 || half.height < 1) continue;
             // A coarse feature only says where to look: a sixteenth of the
             // least area (a quarter of the pixels, and the edges' mixed
             // superpixels), any shape, in the window halved.
@@ -363,7 +366,7 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
             c.area = {std::max(1.0, t.area.min / 16.0), 1e18};
             c.aspectRatio = {0.0, 1e18};
             c.areaRatio = {0.0, 1.0};
-            if (half.width >= 1 && half.height >= 1) coarseTests_.emplace_back(c, half, depth, frame.layout.bitDepth);
+            coarseTests_.emplace_back(c, half, depth, frame.layout.bitDepth);
             coarseTypes_.push_back(c);
         }
         testsSize_ = size;
@@ -413,15 +416,15 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     work.image = std::move(out.bgr);
     if (in.tests != nullptr) work.masks = std::move(out.masks);
     if (out.visibility) work.visibility = *out.visibility;
-    else if (frame.coarse && !regions.empty() && coarse_[i].visibility)
-        work.visibility = *coarse_[i].visibility;
+    else if (frame.coarse && !regions.empty() && coarsePass_[i].visibility)
+        work.visibility = *coarsePass_[i].visibility;
     reduced_[i] = std::move(out.reduced);
     visibilityScratch_[i] = std::move(out.visibilityScratch);
 }
 
 void DemosaicStage::searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in) {
     const std::size_t i = side == Side::Left ? 0 : 1;
-    detail::CoarseResult& coarse = coarse_[i];
+    detail::CoarseResult& coarse = coarsePass_[i];
     detail::runCoarse(in, coarseTests_, coarse);
     std::vector<cv::Rect> boxes;
     for (std::size_t t = 0; t < coarseTests_.size(); ++t)

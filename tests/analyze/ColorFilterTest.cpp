@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -477,6 +478,16 @@ bool referencePasses(const TargetType& t, std::int64_t b, std::int64_t g, std::i
     return within(r, g, *rg) && within(r, b, *rb) && within(b, g, *bg);
 }
 
+/// The samples (B, G, R) of pixel (x, y) of an 8- or 16-bit BGR image.
+std::array<std::int64_t, 3> samplesAt(const cv::Mat& image, int bits, int x, int y) {
+    if (bits == 8) {
+        const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+        return {p[0], p[1], p[2]};
+    }
+    const cv::Vec3w p = image.at<cv::Vec3w>(y, x);
+    return {p[0], p[1], p[2]};
+}
+
 TargetType bandedType() {
     TargetType t = ratioType({1.2, 1.6}, {1.0, 3.0}, {0.2, 1.5});
     // A dark band where the target's R/G sinks (the dark lab of 6.3), a
@@ -509,14 +520,7 @@ TEST(ColorFilter, BrightnessBandsAgreeWithTheDefinitionPixelByPixel8And16Bit) {
         int passed = 0;
         for (int y = 0; y < image.rows; ++y)
             for (int x = 0; x < image.cols; ++x) {
-                std::int64_t b, g, r;
-                if (bits == 8) {
-                    const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
-                    b = p[0], g = p[1], r = p[2];
-                } else {
-                    const cv::Vec3w p = image.at<cv::Vec3w>(y, x);
-                    b = p[0], g = p[1], r = p[2];
-                }
+                const auto [b, g, r] = samplesAt(image, bits, x, y);
                 const bool expected = referencePasses(t, b, g, r);
                 passed += expected;
                 ASSERT_EQ(mask.at<std::uint8_t>(y, x), expected ? 255 : 0)
@@ -647,14 +651,7 @@ TEST(ColorFilter, RowKernelAgreesWithTheDefinitionForEveryWidthAndEdgePixel) {
                 const cv::Mat mask = filterOne(image, bits, t);
                 for (int y = 0; y < image.rows; ++y)
                     for (int x = 0; x < width; ++x) {
-                        std::int64_t b, g, r;
-                        if (bits == 8) {
-                            const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
-                            b = p[0], g = p[1], r = p[2];
-                        } else {
-                            const cv::Vec3w p = image.at<cv::Vec3w>(y, x);
-                            b = p[0], g = p[1], r = p[2];
-                        }
+                        const auto [b, g, r] = samplesAt(image, bits, x, y);
                         const bool expected = referencePasses(t, b, g, r);
                         (expected ? passed : failed) += 1;
                         ASSERT_EQ(mask.at<std::uint8_t>(y, x), expected ? 255 : 0)
