@@ -13,15 +13,21 @@
 // 3. recall, 3-D error by shape and range, signed depth error, the models
 //    used, and the predicted position sigma against the error.
 //
-//   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose]
+//   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR]
 //   trust_report --covariance REPEATS [--seed S]   (predicted sigma against the spread)
 
 #include "../analyze/AccuracyHarness.h"
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/common/Logging.h>
 #include <avatar/config/ConfigXml.h>
 #include <avatar/render/Renderer.h>
 #include <avatar/render/SceneSet.h>
+
+#include <log4cpp/Category.hh>
+#include <log4cpp/Priority.hh>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -42,6 +48,7 @@ struct Options {
     std::uint64_t trainSeed{11};
     std::uint64_t seed{12};
     bool verbose{false};
+    std::string dumpDir;  ///< non-empty: crops of each false or missed target are written there
     int covarianceRepeats{0};  ///< > 0: only the covariance check, with this many noise seeds
 };
 
@@ -434,8 +441,52 @@ void runCovariance(std::uint64_t seed, int repeats, const StereoSystemConfig& st
     std::printf("\nMedian measured / predicted: %.2f\n", quantile(ratios, 0.5));
 }
 
+/// Writes, for each truth target named in @p names, its left and right
+/// crops (3x) beside the same with every type's mask tinted: what the
+/// filters passed around a false or missed target.
+void dumpCrops(const std::string& dir, const render::GroundTruth& truth, const AnalysisFrame& frame,
+               const std::vector<std::string>& names) {
+    static const cv::Scalar kTint[] = {{0, 255, 255}, {0, 0, 255}, {0, 128, 255}, {0, 255, 0}, {255, 0, 255},
+                                       {255, 255, 0}, {255, 255, 255}};
+    for (const auto& t : truth.targets) {
+        if (std::find(names.begin(), names.end(), t.name) == names.end()) continue;
+        std::vector<cv::Mat> rows;
+        for (int s = 0; s < 2; ++s) {
+            const render::TargetView& v = s == 0 ? t.left : t.right;
+            const ImageWork& w = frame.at(s == 0 ? Side::Left : Side::Right);
+            if (!v.silhouetteCentroidPx || w.image.empty()) continue;
+            const double r = std::sqrt(std::max(v.potentialAreaPx, v.areaPx) / M_PI) * 1.6 + 8.0;
+            const cv::Rect box = cv::Rect(static_cast<int>(v.silhouetteCentroidPx->x - r),
+                                          static_cast<int>(v.silhouetteCentroidPx->y - r), static_cast<int>(2 * r),
+                                          static_cast<int>(2 * r)) &
+                                 cv::Rect(0, 0, w.image.cols, w.image.rows);
+            if (box.empty()) continue;
+            cv::Mat crop;
+            if (w.image.depth() == CV_16U) w.image(box).convertTo(crop, CV_8U, 1.0 / 256.0);
+            else crop = w.image(box).clone();
+            double hi = 0.0;
+            cv::minMaxLoc(crop.reshape(1), nullptr, &hi);
+            if (hi > 0.0) crop.convertTo(crop, -1, 255.0 / hi);  // stretched: dark scenes show too
+            cv::Mat tinted = crop.clone();
+            for (std::size_t k = 0; k < w.masks.size(); ++k) {
+                if (w.masks[k].empty()) continue;
+                cv::Mat layer(crop.size(), crop.type(), kTint[std::min<std::size_t>(k, 6)]);
+                cv::Mat blend;
+                cv::addWeighted(crop, 0.4, layer, 0.6, 0.0, blend);
+                blend.copyTo(tinted, w.masks[k](box));
+            }
+            cv::Mat row;
+            cv::hconcat(crop, tinted, row);
+            const double scale = std::max(1.0, 300.0 / box.height);
+            cv::resize(row, row, cv::Size(), scale, scale, cv::INTER_NEAREST);
+            rows.push_back(row);
+            cv::imwrite(dir + "/" + truth.sceneName + "_" + t.name + (s == 0 ? "_L" : "_R") + ".png", row);
+        }
+    }
+}
+
 void usage() {
-    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--covariance REPEATS]\n");
+    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR] [--covariance REPEATS]\n");
 }
 
 }  // namespace
@@ -455,7 +506,12 @@ int main(int argc, char** argv) {
         else if (a == "--train-scenes") o.trainScenes = std::atoi(value().c_str());
         else if (a == "--train-seed") o.trainSeed = std::strtoull(value().c_str(), nullptr, 10);
         else if (a == "--seed") o.seed = std::strtoull(value().c_str(), nullptr, 10);
-        else if (a == "--verbose") o.verbose = true;
+        else if (a == "--verbose") {
+            o.verbose = true;
+            logging::configure(logging::Priority::Warn);
+            logging::category("analyze.assembly").setPriority(log4cpp::Priority::DEBUG);
+        }
+        else if (a == "--dump") o.dumpDir = value();
         else if (a == "--covariance") o.covarianceRepeats = std::atoi(value().c_str());
         else if (a == "--help" || a == "-h") {
             usage();
@@ -488,9 +544,20 @@ int main(int argc, char** argv) {
         for (std::size_t k = 0; k < set.size(); ++k) {
             const auto rr = renderScene(set[k], scorpion.stereo, sensor, renderSeed(o.seed, k));
             truthTargets += static_cast<int>(rr.truth.targets.size());
+            if (o.verbose) std::fprintf(stderr, "== %s\n", rr.truth.sceneName.c_str());
             const VisionTargets result = analysis.analyze(rr.pair, k);
             const std::size_t falsesBefore = tally.falses.size(), missesBefore = tally.misses.size();
             judgeScene(set[k], rr.truth, result, scorpion.stereo, tally);
+            if (!o.dumpDir.empty() && (tally.falses.size() > falsesBefore || tally.misses.size() > missesBefore)) {
+                std::vector<std::string> names;
+                for (std::size_t f = falsesBefore; f < tally.falses.size(); ++f) names.push_back(tally.falses[f]);
+                for (std::size_t f = missesBefore; f < tally.misses.size(); ++f) names.push_back(tally.misses[f]);
+                for (std::string& n : names) {  // "scene/name ..." -> name
+                    n = n.substr(n.find('/') + 1);
+                    n = n.substr(0, n.find(' '));
+                }
+                dumpCrops(o.dumpDir, rr.truth, analysis.lastFrame(), names);
+            }
             if (o.verbose && (tally.falses.size() > falsesBefore || tally.misses.size() > missesBefore)) {
                 std::fprintf(stderr, "scene %s\n", rr.truth.sceneName.c_str());
                 for (const auto& t : rr.truth.targets)
@@ -500,12 +567,22 @@ int main(int argc, char** argv) {
                                  std::string(render::toString(t.left.visibility)).c_str(), t.left.areaPx,
                                  t.left.hiddenFraction(), std::string(render::toString(t.right.visibility)).c_str(),
                                  t.right.areaPx, t.right.hiddenFraction());
-                for (const auto& v : result.targets)
-                    if (v.flags & kTargetStereo)
-                        std::fprintf(stderr, "  found %s [%s] %s L (%.1f %.1f) P (%.1f %.1f %.1f)\n", v.type.c_str(),
-                                     targetFlagsText(v.flags).c_str(), std::string(toString(v.model)).c_str(),
-                                     v.centroidLeftPx->x, v.centroidLeftPx->y, v.positionVisionMm->x,
-                                     v.positionVisionMm->y, v.positionVisionMm->z);
+                for (const auto& oc : set[k].occluders) {
+                    const auto d = imageDisc(scorpion.stereo.left, cv::Point3d(oc.centreMm),
+                                             oc.shape == render::Shape::Box ? cv::norm(oc.halfSizeMm) : oc.radiusMm);
+                    if (d && d->centrePx.x > -d->radiusPx && d->centrePx.y > -d->radiusPx &&
+                        d->centrePx.x < 1280 + d->radiusPx && d->centrePx.y < 960 + d->radiusPx)
+                        std::fprintf(stderr, "  occluder %s at %.0f mm, L (%.0f %.0f) r %.1f px\n", oc.name.c_str(),
+                                     cv::norm(oc.centreMm), d->centrePx.x, d->centrePx.y, d->radiusPx);
+                }
+                for (const auto& v : result.targets) {
+                    const cv::Point2d l = v.centroidLeftPx.value_or(cv::Point2d(-1, -1));
+                    const cv::Point2d r = v.centroidRightPx.value_or(cv::Point2d(-1, -1));
+                    const cv::Point3d p = v.positionVisionMm.value_or(cv::Point3d(0, 0, 0));
+                    std::fprintf(stderr, "  found %s [%s] %s L (%.1f %.1f) %.0f px R (%.1f %.1f) %.0f px P (%.1f %.1f %.1f)\n",
+                                 v.type.c_str(), targetFlagsText(v.flags).c_str(), std::string(toString(v.model)).c_str(),
+                                 l.x, l.y, v.areaLeftPx, r.x, r.y, v.areaRightPx, p.x, p.y, p.z);
+                }
             }
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
