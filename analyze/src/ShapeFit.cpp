@@ -165,7 +165,10 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         const EdgeKind in = probe(toPixel(pointOn(fit.ideal, t, 0.75)), ownIn);
         const EdgeKind deep = probe(toPixel(pointOn(fit.ideal, t, 1.75)), ownDeep);
         if (on == EdgeKind::ImageEdge || on == EdgeKind::WindowEdge) ++c.cut;
+        // At another target, the mixed pixels of the seam pass neither
+        // filter: the nearer one's own pixels may begin a pixel further in.
         else if (ownIn) ++c.present;
+        else if (ownDeep && (on == EdgeKind::Contact || in == EdgeKind::Contact)) ++c.seam;
         else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
         else ++c.missing;
     }

@@ -53,6 +53,10 @@ struct RoundCompleteness {
     int present{0};        ///< unsupported bins where the silhouette still reaches the ellipse
     int cut{0};            ///< unsupported bins beyond the image or window edge
     int hidden{0};         ///< unsupported bins at another target: hidden if it is nearer
+    /// Present bins at another target whose own pixels begin only past the
+    /// seam of mixed pixels: complete if it is the nearer one, which only
+    /// the depths can tell.
+    int seam{0};
     int missing{0};        ///< unsupported bins with background: hidden by something else, or not an ellipse
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };

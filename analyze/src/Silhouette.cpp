@@ -98,11 +98,32 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         if (l == 255) l = kFragment;  // a compound's union apart from its seed's part
     });
     cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
-    cv::Mat isFeature(roi.size(), CV_8UC1);
+    cv::Mat isFeature(roi.size(), CV_8UC1), holes;
     eachPixel([&](std::uint8_t& l, int x, int y) {
-        if (l == kBackground) l = kFeature;  // holes join the feature
+        if (l == kBackground) {  // holes join the feature
+            if (holes.empty()) holes = cv::Mat::zeros(roi.size(), CV_8UC1);
+            holes.at<std::uint8_t>(y, x) = 255;
+            l = kFeature;
+        }
         isFeature.at<std::uint8_t>(y, x) = l == kFeature ? 255 : 0;
     });
+    // Holes: a hole next to another target's or a fragment's pixels is the
+    // seam of mixed pixels between two touching objects, not a hole.
+    cv::Mat holeLabels;
+    std::vector<bool> seam;
+    int holeCount = 0;
+    if (!holes.empty()) {
+        cv::Mat stats, centroids, beside;
+        holeCount = cv::connectedComponentsWithStats(holes, holeLabels, stats, centroids, 8, CV_32S);
+        cv::dilate((lab == kOther) | (lab == kFragment), beside, cv::Mat::ones(3, 3, CV_8UC1));
+        seam.assign(static_cast<std::size_t>(holeCount), false);
+        for (int y = 0; y < roi.height; ++y) {
+            const int* c = holeLabels.ptr<int>(y);
+            const std::uint8_t* b = beside.ptr<std::uint8_t>(y);
+            for (int x = 0; x < roi.width; ++x)
+                if (c[x] > 0 && b[x]) seam[static_cast<std::size_t>(c[x])] = true;
+        }
+    }
 
     // 16-bit samples are read where they are (as floats, the same values a
     // converted copy holds); any other depth through a float copy.
@@ -187,6 +208,34 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     const cv::Vec3f backgroundMean =
         backgroundCount > 0 ? cv::Vec3f(backgroundSum * (1.0 / backgroundCount)) : cv::Vec3f();
     const bool haveColours = targetCount > 0 && backgroundCount > 0;
+    out.colour = targetMean;
+    if (holeCount > 1 && targetMean[1] > 0.f) {
+        std::vector<cv::Vec3d> sums(static_cast<std::size_t>(holeCount), cv::Vec3d(0, 0, 0));
+        std::vector<int> areas(static_cast<std::size_t>(holeCount), 0);
+        for (int y = 0; y < roi.height; ++y) {
+            const int* c = holeLabels.ptr<int>(y);
+            for (int x = 0; x < roi.width; ++x)
+                if (c[x] > 0) {
+                    sums[static_cast<std::size_t>(c[x])] += cv::Vec3d(colour(x, y));
+                    ++areas[static_cast<std::size_t>(c[x])];
+                }
+        }
+        const auto ratios = [](const cv::Vec3d& c) {
+            const double g = std::max(c[1], 1e-3);
+            return cv::Vec2d(std::log(std::max(c[2], 1e-3) / g), std::log(std::max(c[0], 1e-3) / g));
+        };
+        const cv::Vec2d own = ratios(cv::Vec3d(targetMean));
+        // One pixel's noise in log R/G and log B/G (relative variances add).
+        const auto rel = [&](int c) { return noiseVar[c] / std::max(1e-6, double(targetMean[c]) * targetMean[c]); };
+        const double pixelLog = std::sqrt(std::max(rel(2) + rel(1), rel(0) + rel(1)));
+        for (int i = 1; i < holeCount; ++i) {
+            if (seam[static_cast<std::size_t>(i)]) continue;
+            const cv::Vec2d r = ratios(sums[static_cast<std::size_t>(i)] * (1.0 / areas[static_cast<std::size_t>(i)]));
+            const int n = areas[static_cast<std::size_t>(i)];
+            out.holes.push_back({n, std::max(std::abs(r[0] - own[0]), std::abs(r[1] - own[1])),
+                                 pixelLog / std::sqrt(static_cast<double>(n))});
+        }
+    }
 
     /// The noise of a coverage estimate along w = (T - B) / |T - B|^2.
     const auto coverageVariance = [&](const cv::Vec3f& w) {

@@ -54,6 +54,20 @@ struct Silhouette {
     /// direction over the edge contrast: the noise of one pixel's coverage.
     double coverageNoise{0.0};
     bool subPixel{false};  ///< false when target and background colours were too close to use
+    /// Mean colour (B, G, R, in the image's units) of its pixels away from the edge.
+    cv::Vec3f colour{0.f, 0.f, 0.f};
+    /// Its holes: background inside the outline that no filter passed, apart
+    /// from the seams next to other targets (something in front of it, such
+    /// as a speck of silt; or noise, whose holes have the target's colour).
+    struct Hole {
+        int areaPx{0};
+        /// How far its mean colour is from the target's: the larger change
+        /// of R/G and B/G, in natural log.
+        double colourLog{0.0};
+        /// The standard error of that mean colour from the image noise (natural log).
+        double noiseLog{0.0};
+    };
+    std::vector<Hole> holes;
     /// The region examined (full-image coordinates) and its labels: what
     /// probe() reads.
     cv::Rect region;

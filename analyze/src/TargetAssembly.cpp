@@ -1,10 +1,14 @@
 #include "TargetAssembly.h"
 
+#include "ColorFilterKernel.h"
 #include "ShapeFit.h"
 #include "Silhouette.h"
 
 #include <avatar/analyze/ImageFeatureLocator.h>
 #include <avatar/common/CameraModel.h>
+#include <avatar/common/Logging.h>
+
+#include <log4cpp/Category.hh>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -91,6 +95,11 @@ struct ViewVerdict {
     bool touchesEdge{false};
 };
 
+/// The assembler's verdicts, at debug priority: why a target is not whole.
+log4cpp::Category& logger() { return logging::category("analyze.assembly"); }
+
+bool isRound(TargetShape shape) { return shape == TargetShape::Sphere || shape == TargetShape::Disc; }
+
 cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalised) {
     return normalizedToPixel(camera, distortNormalized(camera, normalised));
 }
@@ -111,11 +120,75 @@ struct TargetAssembler::Object {
     double minShare{0.0};
 };
 
+namespace {
+
+/// The colour tests of @p types for a row of nine samples of @p depth (their
+/// search windows opened).
+std::vector<ColorTest> nearTests(const std::vector<TargetType>& types, int depth, int bitDepth) {
+    std::vector<ColorTest> tests;
+    for (TargetType t : types) {
+        t.window = SearchWindow{};
+        tests.emplace_back(t, cv::Size(9, 1), depth == CV_16U ? CV_16U : CV_8U, bitDepth);
+    }
+    return tests;
+}
+
+std::vector<bool> near(const std::vector<ColorTest>& tests, const cv::Vec3f& bgr, double full, double marginLog) {
+    std::vector<bool> out(tests.size(), false);
+    if (!(bgr[1] > 0.f)) return out;
+    // The nine colours as the image would hold them: integer samples.
+    const double steps[3] = {std::exp(-marginLog), 1.0, std::exp(marginLog)};
+    float b[9], g[9], r[9];
+    std::uint8_t verdict[9], scratch[9];
+    const auto sample = [&](double v) { return static_cast<float>(std::clamp(std::round(v), 0.0, full)); };
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            b[3 * i + j] = sample(bgr[0] * steps[i]);
+            g[3 * i + j] = sample(bgr[1]);
+            r[3 * i + j] = sample(bgr[2] * steps[j]);
+        }
+    for (std::size_t t = 0; t < tests.size(); ++t) {
+        tests[t].row(b, g, r, verdict, 9, scratch);
+        out[t] = std::any_of(verdict, verdict + 9, [](std::uint8_t v) { return v != 0; });
+    }
+    return out;
+}
+
+double fullScale(int depth, int bitDepth) { return depth == CV_16U ? (1 << std::clamp(bitDepth, 1, 16)) - 1.0 : 255.0; }
+
+}  // namespace
+
 TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits limits)
     : config_(config),
       limits_(limits),
       calculator_(stereoGeometry(config.stereo)),
-      rightRLeft_(rotationMatrix(rightTLeft(config.stereo))) {}
+      rightRLeft_(rotationMatrix(rightTLeft(config.stereo))) {
+    const auto& t = rightTLeft(config.stereo).translationMm;
+    baselineMm_ = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    // The colour tests for the camera's samples, compiled once.
+    nearBitDepth_ = config.camera.bitDepth;
+    nearDepth_ = nearBitDepth_ > 8 ? CV_16U : CV_8U;
+    nearTests_ = nearTests(config.targets.targets, nearDepth_, nearBitDepth_);
+}
+
+std::vector<bool> typesNear(const std::vector<TargetType>& types, const cv::Vec3f& bgr, int depth, int bitDepth,
+                            double marginLog) {
+    return near(nearTests(types, depth, depth == CV_16U ? bitDepth : 8), bgr,
+                fullScale(depth, depth == CV_16U ? bitDepth : 8), marginLog);
+}
+
+std::vector<bool> TargetAssembler::typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const {
+    if (depth == nearDepth_ && bitDepth == nearBitDepth_)
+        return near(nearTests_, bgr, fullScale(depth, bitDepth), limits_.typeMarginLog);
+    return detail::typesNear(config_.targets.targets, bgr, depth, bitDepth, limits_.typeMarginLog);
+}
+
+bool TargetAssembler::undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const {
+    const std::vector<bool> near = typesNear(bgr, depth, bitDepth);
+    for (std::size_t t = 0; t < near.size(); ++t)
+        if (t != own && near[t]) return true;
+    return false;
+}
 
 std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFrame& frame, Side side) const {
     const ImageWork& w = frame.at(side);
@@ -125,16 +198,35 @@ std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFram
         for (std::size_t i = 0; i < w.features[t].size(); ++i) nodes.push_back({t, i});
     Sets sets(nodes.size());
     bool anyContact = false;
+    // Each feature's colour, and the types it is near, when first needed.
+    std::vector<std::optional<std::vector<bool>>> near(nodes.size());
+    const auto nearOf = [&](std::size_t a) -> const std::vector<bool>& {
+        if (!near[a]) {
+            const Feature& f = w.features[nodes[a].type][nodes[a].feature];
+            const cv::Rect box = f.box & cv::Rect(0, 0, w.image.cols, w.image.rows);
+            const cv::Scalar mean = cv::mean(w.image(box), w.masks[nodes[a].type](box));
+            near[a] = typesNear(cv::Vec3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
+                                          static_cast<float>(mean[2])),
+                                w.image.depth(), frame.layout.bitDepth);
+        }
+        return *near[a];
+    };
     for (std::size_t a = 0; a < nodes.size(); ++a)
         for (std::size_t b = a + 1; b < nodes.size(); ++b) {
             if (nodes[a].type == nodes[b].type) continue;
             const Feature& fa = w.features[nodes[a].type][nodes[a].feature];
             const Feature& fb = w.features[nodes[b].type][nodes[b].feature];
             if ((grown(fa.box, 2) & grown(fb.box, 2)).empty()) continue;
-            if (touching(w.masks[nodes[a].type], fa, w.masks[nodes[b].type], fb)) {
-                sets.join(a, b);
-                anyContact = true;
-            }
+            if (!touching(w.masks[nodes[a].type], fa, w.masks[nodes[b].type], fb)) continue;
+            // One object split between two filters: a colour near the other
+            // filter, or two round types (whose union must then fit one
+            // ellipse, below). A type without a round model cannot check a
+            // union: two colours well inside their own filters there are
+            // two targets that touch (a duck beside a sphere).
+            const bool roundPair = isRound(types[nodes[a].type].shape) && isRound(types[nodes[b].type].shape);
+            if (!roundPair && !nearOf(a)[nodes[b].type] && !nearOf(b)[nodes[a].type]) continue;
+            sets.join(a, b);
+            anyContact = true;
         }
     std::map<std::size_t, std::vector<Member>> groups;
     for (std::size_t a = 0; a < nodes.size(); ++a) groups[anyContact ? sets.find(a) : a].push_back(nodes[a]);
@@ -188,8 +280,7 @@ std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFram
         }
         whole.typeShare = total > 0.0 ? best / total : 0.0;
         bool round = true;
-        for (const auto& [t, a] : area) round = round && types[t].shape != TargetShape::None &&
-                                                types[t].shape != TargetShape::Composite;
+        for (const auto& [t, a] : area) round = round && isRound(types[t].shape);
         bool oneObject = !round;
         whole.minShare = round ? limits_.minTypeShare : limits_.minTypeShareUnchecked;
         if (round) {
@@ -281,7 +372,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
     }
 
     // A target that touches another target in a view is hidden there unless
-    // it is nearer than everything it touches.
+    // it is nearer than everything it touches (judged on the flags the views
+    // gave, so in any order).
+    std::vector<std::uint32_t> viewFlags(out.size(), 0);
+    for (const Placed& p : placed) viewFlags[p.target] = out[p.target].flags;
     for (const Placed& a : placed) {
         VisionTarget& ta = out[a.target];
         for (int side = 0; side < 2; ++side) {
@@ -292,13 +386,40 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 if (&a == &b || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
                 any = true;
                 const VisionTarget& tb = out[b.target];
-                const double margin = 0.5 * std::sqrt(std::max(ta.areaLeftPx, 1.0) / M_PI) /
-                                      config_.stereo.left.fc[0] * (ta.positionVisionMm ? ta.positionVisionMm->z : 0.0);
+                // A merged or undecided neighbour's position may be a blend
+                // of two objects: nothing can be judged nearer than it. One
+                // placed by the centroids of an incomplete silhouette may be
+                // off in depth by what is missing: up to half its radius in
+                // one image's centroid, z^2 dx / (f b) in depth.
+                const std::uint32_t fb = viewFlags[b.target];
+                if (fb & (kTargetMerged | kTargetAmbiguous)) nearer = false;
+                const bool partial = !(fb & kTargetShapeCorrected) &&
+                                     (fb & (kTargetCut | kTargetOccludedLeft | kTargetOccludedRight));
+                double depthDoubt = 0.0;
+                if (partial && tb.positionVisionMm && baselineMm_ > 0.0) {
+                    const double z = tb.positionVisionMm->z;
+                    const double halfRadiusPx = 0.5 * std::sqrt(std::max(tb.areaLeftPx, 1.0) / M_PI);
+                    depthDoubt = z * z * halfRadiusPx / (config_.stereo.left.fc[0] * baselineMm_);
+                }
+                // Nearer by both radii: a target beside another at nearly
+                // its depth (touching, or one into the other) may be hidden
+                // by it in part even though its centre is nearer.
+                const auto radiusMm = [&](const VisionTarget& t) {
+                    return std::sqrt(std::max(t.areaLeftPx, 1.0) / M_PI) / config_.stereo.left.fc[0] *
+                           (t.positionVisionMm ? t.positionVisionMm->z : 0.0);
+                };
+                const double margin = radiusMm(ta) + radiusMm(tb) + depthDoubt;
                 if (!tb.positionVisionMm || !ta.positionVisionMm ||
                     !(ta.positionVisionMm->z + margin < tb.positionVisionMm->z))
                     nearer = false;
             }
-            if (!any || !nearer) ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+            if (!any || !nearer) {
+                ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+                if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+                    log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
+                                      << ": touches " << (any ? "a nearer target" : "no stereo target") << " in the "
+                                      << (side == 0 ? "left" : "right") << " view: occluded there";
+            }
         }
     }
     for (std::size_t i = first; i < out.size(); ++i) {
@@ -341,6 +462,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                            : measureSilhouette(w, static_cast<std::size_t>(-1), o.feature, window,
                                                limits_.centroidCorrelation, o.unionMask);
         const Silhouette& sil = v.silhouette;
+        if (o.unionMask.empty() && undecided(sil.colour, o.type, w.image.depth(), frame.layout.bitDepth))
+            target.flags |= kTargetAmbiguous;
         v.touchesEdge = sil.imageEdgePoints + sil.windowEdgePoints > 0 || o.feature.touchesBorder;
         if (v.touchesEdge) target.flags |= kTargetAtBorder;
         if (round) {
@@ -356,8 +479,14 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             });
             const int tolerance = limits_.maxUnsupportedBins;
             v.cut = v.round.cut > tolerance;
-            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx;
-            v.contact = v.round.hidden > tolerance;  // judged by depth in assemble()
+            bool holed = false;
+            for (const Silhouette::Hole& h : sil.holes)
+                holed = holed || (h.areaPx >= limits_.minHolePx && h.colourLog >= limits_.minHoleColourLog &&
+                                  h.colourLog >= limits_.holeNoiseFactor * h.noiseLog);
+            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed;
+            // Judged by depth in assemble(); the seam bins are the outline's
+            // own, so they leave it complete if it is the nearer one.
+            v.contact = v.round.hidden + v.round.seam > tolerance;
             // Two round targets in one feature: a waist on either side (or
             // points well outside any one ellipse).
             const double minorRadius = 0.5 * std::min(v.fit.ideal.size.width, v.fit.ideal.size.height);
@@ -492,6 +621,29 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     } else if (model == ShapeModel::None && views[0].roundFits && views[1].roundFits &&
                mismatch > limits_.maxSizeMismatch) {
         target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
+    }
+    if (log4cpp::Category& log = logger(); log.isDebugEnabled()) {
+        auto stream = log.debugStream();
+        stream << type.name << " at L " << cl << " R " << cr << ": size mismatch " << mismatch
+               << (left.typeShare < left.minShare || right.typeShare < right.minShare ? ", type share low" : "")
+               << (left.type != right.type ? ", types differ" : "") << (conflict ? ", match conflict" : "");
+        for (int s = 0; s < 2; ++s) {
+            const ViewVerdict& v = views[s];
+            const Silhouette& sil = v.silhouette;
+            stream << (s == 0 ? "; left" : "; right") << ": points free " << sil.freePoints << " edge "
+                   << sil.imageEdgePoints + sil.windowEdgePoints << " contact " << sil.contactPoints << " fragment "
+                   << sil.fragmentPoints;
+            if (round)
+                stream << ", fit " << (v.fit.ok ? "" : "failed ") << "rms " << v.fit.rmsPx << " bins "
+                       << v.round.bins << " supported " << v.round.supported << " present " << v.round.present
+                       << " cut " << v.round.cut << " at-target " << v.round.hidden << " seam " << v.round.seam << " missing "
+                       << v.round.missing << (v.round.excess ? " excess" : "");
+            stream << " colour " << sil.colour << " holes";
+            for (const Silhouette::Hole& h : sil.holes)
+                if (h.areaPx >= limits_.minHolePx) stream << " " << h.areaPx << "/" << h.colourLog << "/" << h.noiseLog;
+            stream << (v.cut ? " CUT" : "") << (v.hidden ? " HIDDEN" : "") << (v.merged ? " MERGED" : "")
+                   << (v.contact ? " CONTACT" : "");
+        }
     }
     return built;
 }

@@ -15,6 +15,8 @@
 ///   through the triangulation;
 /// - kTargetWhole only when nothing says otherwise.
 
+#include "ColorFilterKernel.h"
+
 #include <avatar/analyze/Feature.h>
 #include <avatar/analyze/ProcessStereoImagePair.h>
 #include <avatar/analyze/SIPFeatureMatcher.h>
@@ -45,10 +47,33 @@ struct CompletenessLimits {
     double minConcavityDepth{0.08};  ///< of a round silhouette's waist, relative to its radius
     double minTypeShare{0.8};       ///< of an object split between filters, for its type to be decided
     double minTypeShareUnchecked{0.97};  ///< the same when a type of the object has no round model
+    /// A colour that another type's filter passes once its R/G or B/G
+    /// changes by this factor (natural log; 0.1 = 10 %) cannot be told from
+    /// that type: a colour between two filters, or one water or light has
+    /// moved. Its type is undecided, and touching features of two types are
+    /// fragments of one object only when one's colour is this near the
+    /// other's filter (otherwise they are two targets).
+    double typeMarginLog{0.1};
+    /// A round silhouette with a hole of at least this many pixels (inside
+    /// its outline, passed by no filter) whose mean colour differs from the
+    /// target's by at least minHoleColourLog (R/G or B/G, natural log) and
+    /// by holeNoiseFactor times that mean's noise is hidden in part by
+    /// something in front of it. Noise leaves holes too: small ones, near
+    /// the target's colour (in the dark, single pixels stray far).
+    int minHolePx{4};
+    double minHoleColourLog{0.5};
+    double holeNoiseFactor{4.0};
     /// Variance factor of the centroid covariance (see measureSilhouette()):
     /// measured, trust_report --covariance 20 --seed 21 (docs/accuracy.md).
     double centroidCorrelation{15.0};
 };
+
+/// Which of @p types' filters (their search windows are ignored) pass the
+/// colour @p bgr (in the units of @p depth, CV_8U or CV_16U, with
+/// @p bitDepth significant bits) once its R/G and B/G are each moved by up
+/// to @p marginLog (natural log) either way.
+std::vector<bool> typesNear(const std::vector<TargetType>& types, const cv::Vec3f& bgr, int depth, int bitDepth,
+                            double marginLog);
 
 class TargetAssembler {
 public:
@@ -69,6 +94,9 @@ private:
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
+    std::vector<bool> typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const;
+    /// Whether a colour of type @p own is within the margin of another type's filter.
+    bool undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
     Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
                        bool conflict) const;
     VisionTarget singleTarget(const AnalysisFrame& frame, const Object& object, Side side) const;
@@ -77,6 +105,10 @@ private:
     CompletenessLimits limits_;
     StereoCoordinateCalculator calculator_;
     cv::Matx33d rightRLeft_;
+    double baselineMm_{0.0};
+    /// typesNear()'s colour tests, for samples of the configured camera.
+    int nearDepth_{-1}, nearBitDepth_{0};
+    std::vector<ColorTest> nearTests_;
 };
 
 }  // namespace avatar::detail

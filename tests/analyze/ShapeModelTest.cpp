@@ -5,6 +5,7 @@
 // filters), by which model, and how far from the true centre.
 #include "ShapeFit.h"
 #include "Silhouette.h"
+#include "TargetAssembly.h"
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/CameraModel.h>
@@ -285,6 +286,96 @@ TEST(Completeness, OneTargetSplitBetweenTwoFiltersIsReportedOnce) {
     EXPECT_EQ(m->type, "sample");
     EXPECT_EQ(m->model, ShapeModel::Sphere);
     EXPECT_LT(o.errorMm("mostly"), 1.0);
+}
+
+// A speck of silt in front of a sphere, inside its outline in the left image
+// only, leaves a hole the filter does not pass: the sphere is hidden there in
+// part (not whole), though its outline is complete and its model still places
+// it. The same sphere without the speck is whole.
+TEST(Completeness, ASpeckInsideTheOutlineHidesPartOfTheTarget) {
+    render::Scene scene = emptyLab();
+    scene.targets = {target("specked", render::Shape::Sphere, {-150, 0, 800}, 35),
+                     target("clear", render::Shape::Sphere, {180, 60, 800}, 35)};
+    render::Occluder speck;
+    speck.name = "silt";
+    speck.centreMm = cv::Vec3d(-150, 0, 800) * 0.35 + cv::Vec3d(0, 3, 0);
+    speck.radiusMm = 2.0;
+    speck.albedo = {0.75, 0.75, 0.7};
+    scene.occluders = {speck};
+    const Outcome o = run(scene, config(TargetShape::Sphere));
+    const render::TargetTruth& truth = o.truth.target("specked");
+    ASSERT_TRUE(truth.left.occluded && !truth.right.occluded) << "the speck must be in front in the left image only";
+    ASSERT_GT(truth.left.hiddenFraction(), 0.01);
+    const auto s = o.of("specked");
+    ASSERT_TRUE(s);
+    EXPECT_TRUE((s->flags & kTargetOccludedLeft) && !(s->flags & kTargetOccludedRight) && !(s->flags & kTargetWhole))
+        << flagsOf(s);
+    EXPECT_EQ(s->model, ShapeModel::Sphere);
+    EXPECT_LT(o.errorMm("specked"), 1.0);
+    const auto c = o.of("clear");
+    EXPECT_TRUE(c && (c->flags & kTargetWhole)) << flagsOf(c);
+}
+
+// A yellow duck (a composite type: no model can check a union) with a gold
+// sphere in front of its edge in the right image: two colours well inside their
+// own filters are two targets, not one object split between filters. The
+// sphere is whole; the duck, hidden in part, is reported as its own type and
+// occluded, not ambiguous.
+TEST(Completeness, ADuckBehindASphereOfAnotherColourAreTwoTargets) {
+    render::Scene scene = emptyLab();
+    auto duck = target("duck", render::Shape::Duck, {0, 0, 900}, 40);
+    duck.om = {0.0, M_PI, 0.0};  // facing left: its beak away from the ball
+    auto ball = target("ball", render::Shape::Sphere, {0, 0, 0}, 22, kGold, "arm_marker");
+    // 400 mm nearer than the duck, beside it in the left image and in front
+    // of its edge in the right.
+    ball.centreMm = cv::Vec3d(0, 0, 900) * (500.0 / 900.0) + cv::Vec3d(61, 0, 0);
+    scene.targets = {duck, ball};
+    AvatarConfig cfg = config(TargetShape::Sphere);
+    cfg.targets.targets[0].shape = TargetShape::Composite;  // "sample": the duck
+    const Outcome o = run(scene, cfg);
+    ASSERT_TRUE(!o.truth.target("duck").left.occluded && o.truth.target("duck").right.occluded)
+        << "the ball must hide part of the duck in the right image only";
+    EXPECT_EQ(o.stereoCount(), 2);
+    const auto b = o.of("ball");
+    ASSERT_TRUE(b);
+    EXPECT_EQ(b->type, "arm_marker");
+    EXPECT_TRUE(b->flags & kTargetWhole) << flagsOf(b);
+    EXPECT_LT(o.errorMm("ball"), 2.0);  // its right outline meets the duck: a seam of mixed pixels
+    const auto d = o.of("duck");
+    ASSERT_TRUE(d);
+    EXPECT_EQ(d->type, "sample");
+    EXPECT_TRUE(!(d->flags & kTargetWhole) && !(d->flags & kTargetAmbiguous) && (d->flags & kTargetOccludedRight) &&
+                !(d->flags & kTargetOccludedLeft))
+        << flagsOf(d);
+}
+
+// The type margin: a colour is near a filter it fails only by less than the
+// margin in R/G or B/G; windows do not matter; 8- and 16-bit colours agree.
+TEST(Completeness, AColourWithinTheMarginOfAnotherFilterIsNearIt) {
+    TargetType low, high;
+    low.name = "low";
+    low.redGreen = {1.0, 2.0};
+    high.name = "high";
+    high.redGreen = {2.3, 4.0};
+    high.window = {0, 0, 1, 1};  // a window the test colours are not in
+    const std::vector<TargetType> types{low, high};
+    const double margin = 0.1;  // 10.5 %
+    // R/G 1.9: passes low; 1.9 x 1.105 = 2.10 < 2.3, so not near high.
+    auto near = detail::typesNear(types, cv::Vec3f(20.f, 100.f, 190.f), CV_8U, 8, margin);
+    EXPECT_TRUE(near[0]);
+    EXPECT_FALSE(near[1]);
+    // R/G 2.1: passes low's margin (2.1 / 1.105 = 1.90) and high's (2.1 x 1.105 = 2.32).
+    near = detail::typesNear(types, cv::Vec3f(20.f, 100.f, 210.f), CV_8U, 8, margin);
+    EXPECT_TRUE(near[0]);
+    EXPECT_TRUE(near[1]);
+    const auto wide = detail::typesNear(types, cv::Vec3f(20.f * 256, 100.f * 256, 210.f * 256), CV_16U, 16, margin);
+    EXPECT_EQ(wide, near);
+    // R/G 2.6: high only; a black pixel is near nothing.
+    near = detail::typesNear(types, cv::Vec3f(20.f, 100.f, 255.f), CV_8U, 8, margin);
+    EXPECT_FALSE(near[0]);
+    EXPECT_TRUE(near[1]);
+    near = detail::typesNear(types, cv::Vec3f(0.f, 0.f, 0.f), CV_8U, 8, margin);
+    EXPECT_EQ(near, std::vector<bool>({false, false}));
 }
 
 }  // namespace
