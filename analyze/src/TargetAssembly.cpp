@@ -618,6 +618,20 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     if (!round) {
         const double limit = limits_.maxAreaMismatch;
         if (mismatch > limit) target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
+        // Nor may its extent differ: two nearby viewpoints turn a rigid
+        // object by a few degrees, which changes its width and height by a
+        // few per cent; a part hidden in one view, or a neighbour of its
+        // colour run into it there, changes them more (an area can hide
+        // that when the two differ in opposite directions).
+        const auto extentMismatch = [&](double a, double b) {
+            return std::abs(a - b) / std::max(0.5 * (a + b), 1e-9);
+        };
+        const double wL = fl.box.width * dl / config_.stereo.left.fc[0], wR = fr.box.width * dr / config_.stereo.right.fc[0];
+        const double hL = fl.box.height * dl / config_.stereo.left.fc[1], hR = fr.box.height * dr / config_.stereo.right.fc[1];
+        if (extentMismatch(wL, wR) > limits_.maxExtentMismatch)
+            target.flags |= wL < wR ? kTargetOccludedLeft : kTargetOccludedRight;
+        if (extentMismatch(hL, hR) > limits_.maxExtentMismatch)
+            target.flags |= hL < hR ? kTargetOccludedLeft : kTargetOccludedRight;
     } else if (model == ShapeModel::None && views[0].roundFits && views[1].roundFits &&
                mismatch > limits_.maxSizeMismatch) {
         target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;

@@ -41,6 +41,8 @@ struct CompletenessLimits {
     double maxDiscNormalDisagreementRad{0.09};  ///< about 5 degrees
     double maxSizeMismatch{0.04};   ///< relative, of a round target's size between the views
     double maxAreaMismatch{0.08};
+    /// relative, of the range-scaled widths and heights of other shapes
+    double maxExtentMismatch{0.15};
     /// A target without a round model this close to the image's or the
     /// search window's edge (px) is cut.
     int nearEdgePx{3};   ///< relative, of the range-scaled areas of other shapes
