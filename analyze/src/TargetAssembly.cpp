@@ -165,6 +165,16 @@ TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits 
       rightRLeft_(rotationMatrix(rightTLeft(config.stereo))) {
     const auto& t = rightTLeft(config.stereo).translationMm;
     baselineMm_ = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    // A rectifying rotation (x along the baseline, y across it and the left
+    // optical axis): the right camera's centre in the left frame is -R^T t.
+    if (baselineMm_ > 0.0) {
+        const cv::Vec3d e1 = -(rightRLeft_.t() * cv::Vec3d(t[0], t[1], t[2])) * (1.0 / baselineMm_);
+        cv::Vec3d e2 = cv::Vec3d(0, 0, 1).cross(e1);
+        e2 *= 1.0 / std::max(cv::norm(e2), 1e-12);
+        const cv::Vec3d e3 = e1.cross(e2);
+        rectifyLeft_ = cv::Matx33d(e1[0], e1[1], e1[2], e2[0], e2[1], e2[2], e3[0], e3[1], e3[2]);
+        rectifyRight_ = rectifyLeft_ * rightRLeft_.t();
+    }
     // The colour tests for the camera's samples, compiled once.
     nearBitDepth_ = config.camera.bitDepth;
     nearDepth_ = nearBitDepth_ > 8 ? CV_16U : CV_8U;
@@ -636,9 +646,49 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                mismatch > limits_.maxSizeMismatch) {
         target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
     }
+    // Epipolar tangency: the epipolar planes that touch a rigid object's top
+    // and bottom are the same for both cameras, so its two silhouettes must
+    // reach the same rectified rows. A view that stops short at either end
+    // lacks a part there (or the other holds more than the object: a
+    // neighbour run into it in that view only); either way it is not whole.
+    // The area and extent checks cannot see a cap this small.
+    const auto rows = [&](int s) {
+        const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
+        const cv::Matx33d& rect = s == 0 ? rectifyLeft_ : rectifyRight_;
+        const auto& outline = views[s].silhouette.outline;
+        double lo = 1e300, hi = -1e300, top = 1e300, bottom = -1e300;
+        for (const OutlinePoint& p : outline) {
+            top = std::min(top, p.px.y);
+            bottom = std::max(bottom, p.px.y);
+        }
+        // The rectified rows' extremes lie among the image's top and bottom
+        // rows (the rectifying rotation and the lens turn rows by a few
+        // degrees at most): only those points are undistorted.
+        const double band = 2.0 + 0.15 * (bottom - top);
+        for (const OutlinePoint& p : outline) {
+            if (p.px.y > top + band && p.px.y < bottom - band) continue;
+            const cv::Point2d n = normalizePixel(camera, p.px);
+            const cv::Vec3d q = rect * cv::Vec3d(n.x, n.y, 1.0);
+            if (q[2] <= 0.0) continue;
+            lo = std::min(lo, q[1] / q[2]);
+            hi = std::max(hi, q[1] / q[2]);
+        }
+        return std::make_pair(lo, hi);
+    };
+    const auto rl = rows(0), rr = rows(1);
+    double topPx = 0.0, bottomPx = 0.0;
+    if (rl.first <= rl.second && rr.first <= rr.second) {
+        const double f = config_.stereo.left.fc[0];
+        topPx = (rl.first - rr.first) * f;       // > 0: the left view starts lower
+        bottomPx = (rl.second - rr.second) * f;  // < 0: the left view ends higher
+        const double tolerance = limits_.maxTangencyPx;
+        if (topPx > tolerance || bottomPx < -tolerance) target.flags |= kTargetOccludedLeft;
+        if (topPx < -tolerance || bottomPx > tolerance) target.flags |= kTargetOccludedRight;
+    }
     if (log4cpp::Category& log = logger(); log.isDebugEnabled()) {
         auto stream = log.debugStream();
-        stream << type.name << " at L " << cl << " R " << cr << ": size mismatch " << mismatch
+        stream << type.name << " at L " << cl << " R " << cr << ": tangency top " << topPx << " bottom " << bottomPx
+               << " px, size mismatch " << mismatch
                << (left.typeShare < left.minShare || right.typeShare < right.minShare ? ", type share low" : "")
                << (left.type != right.type ? ", types differ" : "") << (conflict ? ", match conflict" : "");
         for (int s = 0; s < 2; ++s) {

@@ -63,6 +63,10 @@ struct CompletenessLimits {
     /// something in front of it. Noise leaves holes too: small ones, near
     /// the target's colour (in the dark, single pixels stray far).
     int minHolePx{4};
+    /// Largest difference (px) between the two views' top or bottom
+    /// rectified rows (the epipolar tangency of a whole rigid object;
+    /// whole targets agree within 0.3 px, median).
+    double maxTangencyPx{2.0};
     double minHoleColourLog{0.5};
     double holeNoiseFactor{4.0};
     /// Variance factor of the centroid covariance (see measureSilhouette()):
@@ -108,6 +112,9 @@ private:
     StereoCoordinateCalculator calculator_;
     cv::Matx33d rightRLeft_;
     double baselineMm_{0.0};
+    /// Rotations of left and right normalised rays into a common rectified
+    /// frame (rows along the epipolar lines).
+    cv::Matx33d rectifyLeft_ = cv::Matx33d::eye(), rectifyRight_ = cv::Matx33d::eye();
     /// typesNear()'s colour tests, for samples of the configured camera.
     int nearDepth_{-1}, nearBitDepth_{0};
     std::vector<ColorTest> nearTests_;

@@ -378,5 +378,33 @@ TEST(Completeness, AColourWithinTheMarginOfAnotherFilterIsNearIt) {
     EXPECT_EQ(near, std::vector<bool>({false, false}));
 }
 
+// A duck (a composite type: no model checks its outline) whose head is
+// topped by a grey sphere in front of it in the left image only: little of
+// its area is lost, but its silhouette there ends lower than in the right
+// image, which a rigid object seen from two nearby viewpoints cannot do.
+TEST(Completeness, ADuckLosingItsTopInOneViewIsNotWhole) {
+    render::Scene scene = emptyLab();
+    const double s = 40.0, z = 900.0;
+    const cv::Vec3d centre(-100, 0, z);
+    scene.targets = {target("duck", render::Shape::Duck, centre, s)};
+    render::Occluder cap;
+    cap.name = "cap";
+    // 35 % of the way from the left camera to a point above the head, its
+    // image's lower edge 1.05 s above the duck's centre: the top of its
+    // head (1.3 s up), about 4 % of its silhouette, hidden.
+    cap.radiusMm = 0.35 * s;
+    cap.centreMm = (centre + cv::Vec3d(0.55 * s, -(1.05 + 1.0) * s, 0)) * 0.35;
+    cap.albedo = {0.35, 0.35, 0.35};
+    scene.occluders = {cap};
+    const Outcome o = run(scene, config(TargetShape::Composite));
+    const render::TargetTruth& truth = o.truth.target("duck");
+    ASSERT_TRUE(truth.left.occluded && !truth.right.occluded) << "the cap must hide the head in the left image only";
+    ASSERT_GT(truth.left.hiddenFraction(), 0.02);
+    ASSERT_LT(truth.left.hiddenFraction(), 0.06) << "too little for the area check to see";
+    const auto d = o.of("duck");
+    ASSERT_TRUE(d);
+    EXPECT_TRUE((d->flags & kTargetOccludedLeft) && !(d->flags & kTargetWhole)) << flagsOf(d);
+}
+
 }  // namespace
 }  // namespace avatar
