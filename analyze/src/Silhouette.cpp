@@ -109,12 +109,12 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     });
     // Holes: a hole next to another target's or a fragment's pixels is the
     // seam of mixed pixels between two touching objects, not a hole.
-    cv::Mat holeLabels;
+    cv::Mat holeLabels, holeStats;
     std::vector<bool> seam;
     int holeCount = 0;
     if (!holes.empty()) {
-        cv::Mat stats, centroids, beside;
-        holeCount = cv::connectedComponentsWithStats(holes, holeLabels, stats, centroids, 8, CV_32S);
+        cv::Mat centroids, beside;
+        holeCount = cv::connectedComponentsWithStats(holes, holeLabels, holeStats, centroids, 8, CV_32S);
         cv::dilate((lab == kOther) | (lab == kFragment), beside, cv::Mat::ones(3, 3, CV_8UC1));
         seam.assign(static_cast<std::size_t>(holeCount), false);
         for (int y = 0; y < roi.height; ++y) {
@@ -211,14 +211,10 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     out.colour = targetMean;
     if (holeCount > 1 && targetMean[1] > 0.f) {
         std::vector<cv::Vec3d> sums(static_cast<std::size_t>(holeCount), cv::Vec3d(0, 0, 0));
-        std::vector<int> areas(static_cast<std::size_t>(holeCount), 0);
         for (int y = 0; y < roi.height; ++y) {
             const int* c = holeLabels.ptr<int>(y);
             for (int x = 0; x < roi.width; ++x)
-                if (c[x] > 0) {
-                    sums[static_cast<std::size_t>(c[x])] += cv::Vec3d(colour(x, y));
-                    ++areas[static_cast<std::size_t>(c[x])];
-                }
+                if (c[x] > 0) sums[static_cast<std::size_t>(c[x])] += cv::Vec3d(colour(x, y));
         }
         const auto ratios = [](const cv::Vec3d& c) {
             const double g = std::max(c[1], 1e-3);
@@ -226,12 +222,15 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         };
         const cv::Vec2d own = ratios(cv::Vec3d(targetMean));
         // One pixel's noise in log R/G and log B/G (relative variances add).
-        const auto rel = [&](int c) { return noiseVar[c] / std::max(1e-6, double(targetMean[c]) * targetMean[c]); };
+        const auto rel = [&](int c) {
+            const double m = targetMean[c];
+            return noiseVar[c] / std::max(1e-6, m * m);
+        };
         const double pixelLog = std::sqrt(std::max(rel(2) + rel(1), rel(0) + rel(1)));
         for (int i = 1; i < holeCount; ++i) {
             if (seam[static_cast<std::size_t>(i)]) continue;
-            const cv::Vec2d r = ratios(sums[static_cast<std::size_t>(i)] * (1.0 / areas[static_cast<std::size_t>(i)]));
-            const int n = areas[static_cast<std::size_t>(i)];
+            const int n = holeStats.at<int>(i, cv::CC_STAT_AREA);
+            const cv::Vec2d r = ratios(sums[static_cast<std::size_t>(i)] * (1.0 / n));
             out.holes.push_back({n, std::max(std::abs(r[0] - own[0]), std::abs(r[1] - own[1])),
                                  pixelLog / std::sqrt(static_cast<double>(n))});
         }

@@ -624,7 +624,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const double dl = cv::norm(point->leftMm), dr = cv::norm(point->rightMm);
     const double sizeL = std::sqrt(std::max(target.areaLeftPx, 0.0)) * dl / config_.stereo.left.fc[0];
     const double sizeR = std::sqrt(std::max(target.areaRightPx, 0.0)) * dr / config_.stereo.right.fc[0];
-    const double mismatch = std::abs(sizeL - sizeR) / std::max(0.5 * (sizeL + sizeR), 1e-9);
+    const auto relativeDifference = [](double a, double b) { return std::abs(a - b) / std::max(0.5 * (a + b), 1e-9); };
+    const double mismatch = relativeDifference(sizeL, sizeR);
     if (!round) {
         const double limit = limits_.maxAreaMismatch;
         if (mismatch > limit) target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
@@ -633,14 +634,11 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // few per cent; a part hidden in one view, or a neighbour of its
         // colour run into it there, changes them more (an area can hide
         // that when the two differ in opposite directions).
-        const auto extentMismatch = [&](double a, double b) {
-            return std::abs(a - b) / std::max(0.5 * (a + b), 1e-9);
-        };
         const double wL = fl.box.width * dl / config_.stereo.left.fc[0], wR = fr.box.width * dr / config_.stereo.right.fc[0];
         const double hL = fl.box.height * dl / config_.stereo.left.fc[1], hR = fr.box.height * dr / config_.stereo.right.fc[1];
-        if (extentMismatch(wL, wR) > limits_.maxExtentMismatch)
+        if (relativeDifference(wL, wR) > limits_.maxExtentMismatch)
             target.flags |= wL < wR ? kTargetOccludedLeft : kTargetOccludedRight;
-        if (extentMismatch(hL, hR) > limits_.maxExtentMismatch)
+        if (relativeDifference(hL, hR) > limits_.maxExtentMismatch)
             target.flags |= hL < hR ? kTargetOccludedLeft : kTargetOccludedRight;
     } else if (model == ShapeModel::None && views[0].roundFits && views[1].roundFits &&
                mismatch > limits_.maxSizeMismatch) {

@@ -55,6 +55,16 @@ render::TargetSpec target(const std::string& name, render::Shape shape, cv::Vec3
     return t;
 }
 
+/// A grey sphere that is not a target (a rock, a speck of silt).
+render::Occluder occluder(const std::string& name, cv::Vec3d centre, double radius, double grey) {
+    render::Occluder o;
+    o.name = name;
+    o.centreMm = centre;
+    o.radiusMm = radius;
+    o.albedo = {grey, grey, grey};
+    return o;
+}
+
 struct Outcome {
     render::GroundTruth truth;
     VisionTargets result;
@@ -212,12 +222,7 @@ TEST(Completeness, BorderCutAndHidden) {
     // The front sphere 40 % of the way from the left camera to "behind",
     // overlapping its left edge in the left image only.
     scene.targets[4].centreMm = cv::Vec3d(200, -150, 900) * 0.6 + cv::Vec3d(-38, 0, 0);
-    render::Occluder rock;
-    rock.name = "rock";
-    rock.centreMm = cv::Vec3d(-200, -150, 800) * 0.35 + cv::Vec3d(-12, 0, 0);
-    rock.radiusMm = 8;
-    rock.albedo = {0.35, 0.35, 0.35};
-    scene.occluders = {rock};
+    scene.occluders = {occluder("rock", cv::Vec3d(-200, -150, 800) * 0.35 + cv::Vec3d(-12, 0, 0), 8, 0.35)};
     const Outcome o = run(scene, config(TargetShape::Sphere));
     const render::TargetTruth& touching = o.truth.target("touching");
     ASSERT_TRUE(touching.left.atBorder && !touching.left.cut) << "the scene must touch the border";
@@ -296,12 +301,7 @@ TEST(Completeness, ASpeckInsideTheOutlineHidesPartOfTheTarget) {
     render::Scene scene = emptyLab();
     scene.targets = {target("specked", render::Shape::Sphere, {-150, 0, 800}, 35),
                      target("clear", render::Shape::Sphere, {180, 60, 800}, 35)};
-    render::Occluder speck;
-    speck.name = "silt";
-    speck.centreMm = cv::Vec3d(-150, 0, 800) * 0.35 + cv::Vec3d(0, 3, 0);
-    speck.radiusMm = 2.0;
-    speck.albedo = {0.75, 0.75, 0.7};
-    scene.occluders = {speck};
+    scene.occluders = {occluder("silt", cv::Vec3d(-150, 0, 800) * 0.35 + cv::Vec3d(0, 3, 0), 2.0, 0.75)};
     const Outcome o = run(scene, config(TargetShape::Sphere));
     const render::TargetTruth& truth = o.truth.target("specked");
     ASSERT_TRUE(truth.left.occluded && !truth.right.occluded) << "the speck must be in front in the left image only";
@@ -387,15 +387,10 @@ TEST(Completeness, ADuckLosingItsTopInOneViewIsNotWhole) {
     const double s = 40.0, z = 900.0;
     const cv::Vec3d centre(-100, 0, z);
     scene.targets = {target("duck", render::Shape::Duck, centre, s)};
-    render::Occluder cap;
-    cap.name = "cap";
     // 35 % of the way from the left camera to a point above the head, its
     // image's lower edge 1.05 s above the duck's centre: the top of its
     // head (1.3 s up), about 4 % of its silhouette, hidden.
-    cap.radiusMm = 0.35 * s;
-    cap.centreMm = (centre + cv::Vec3d(0.55 * s, -(1.05 + 1.0) * s, 0)) * 0.35;
-    cap.albedo = {0.35, 0.35, 0.35};
-    scene.occluders = {cap};
+    scene.occluders = {occluder("cap", (centre + cv::Vec3d(0.55 * s, -(1.05 + 1.0) * s, 0)) * 0.35, 0.35 * s, 0.35)};
     const Outcome o = run(scene, config(TargetShape::Composite));
     const render::TargetTruth& truth = o.truth.target("duck");
     ASSERT_TRUE(truth.left.occluded && !truth.right.occluded) << "the cap must hide the head in the left image only";

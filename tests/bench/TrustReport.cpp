@@ -582,7 +582,7 @@ int main(int argc, char** argv) {
                     const auto d = imageDisc(scorpion.stereo.left, cv::Point3d(oc.centreMm),
                                              oc.shape == render::Shape::Box ? cv::norm(oc.halfSizeMm) : oc.radiusMm);
                     if (d && d->centrePx.x > -d->radiusPx && d->centrePx.y > -d->radiusPx &&
-                        d->centrePx.x < 1280 + d->radiusPx && d->centrePx.y < 960 + d->radiusPx)
+                        d->centrePx.x < sensor.width + d->radiusPx && d->centrePx.y < sensor.height + d->radiusPx)
                         std::fprintf(stderr, "  occluder %s at %.0f mm, L (%.0f %.0f) r %.1f px\n", oc.name.c_str(),
                                      cv::norm(oc.centreMm), d->centrePx.x, d->centrePx.y, d->radiusPx);
                 }
