@@ -131,17 +131,61 @@ AVATAR_KERNEL_CLONES void accumulate(const float* __restrict in, float* __restri
     for (int i = 0; i < n; ++i) sum[i] += in[i];
 }
 
-/// One channel of a row of the 4x4-block means from four rows' column sums,
-/// rounded to nearest with ties to even, as downsampleArea4() (cv::resize
-/// INTER_AREA), into every third sample of @p out (its channel's).
+/// countSaturated() and the column sums of the three planes in one loop: the
+/// sums are started (@p first, a block's first row) or added to.
+AVATAR_KERNEL_CLONES std::int32_t sumAndCount(const float* __restrict b, const float* __restrict g,
+                                              const float* __restrict r, float* __restrict sb,
+                                              float* __restrict sg, float* __restrict sr, int n, float full,
+                                              bool first) {
+    std::int32_t count = 0;
+    if (first)
+        for (int i = 0; i < n; ++i) {
+            sb[i] = b[i];
+            sg[i] = g[i];
+            sr[i] = r[i];
+            count += static_cast<std::int32_t>((b[i] >= full) | (g[i] >= full) | (r[i] >= full));
+        }
+    else
+        for (int i = 0; i < n; ++i) {
+            sb[i] += b[i];
+            sg[i] += g[i];
+            sr[i] += r[i];
+            count += static_cast<std::int32_t>((b[i] >= full) | (g[i] >= full) | (r[i] >= full));
+        }
+    return count;
+}
+
+/// One channel of a row of 4x4-block sums from four rows' column sums (exact:
+/// integers below 2^24, so the order of the additions does not matter).
+AVATAR_KERNEL_CLONES void blockSums(const float* __restrict sums, float* __restrict out, int blocks) {
+    for (int x = 0; x < blocks; ++x) out[x] = (sums[4 * x] + sums[4 * x + 1]) + (sums[4 * x + 2] + sums[4 * x + 3]);
+}
+
+/// The 4x4-block means from their sums, rounded to nearest with ties to
+/// even, as downsampleArea4() (cv::resize INTER_AREA), as samples. Planar:
+/// the three channels are interleaved afterwards by OpenCV's vectorised merge
+/// (a stride-3 store kept this loop scalar).
 template <typename S>
 AVATAR_KERNEL_CLONES void blockMeans(const float* __restrict sums, S* __restrict out, int blocks) {
+    // sum = 16 q + r: adding 7 and q's parity carries into q exactly when r > 8,
+    // or r = 8 and q is odd (integer operations only, which GCC vectorises).
     for (int x = 0; x < blocks; ++x) {
-        const float* s = sums + 4 * x;
-        const auto sum = static_cast<std::uint32_t>(static_cast<std::int32_t>((s[0] + s[1]) + (s[2] + s[3])));
-        const std::uint32_t q = sum >> 4, r = sum & 15u;
-        out[3 * x] = static_cast<S>(q + ((r > 8u) | ((r == 8u) & (q & 1u))));
+        const auto sum = static_cast<std::uint32_t>(static_cast<std::int32_t>(sums[x]));
+        out[x] = static_cast<S>((sum + 7u + ((sum >> 4) & 1u)) >> 4);
     }
+}
+
+/// One row of the 4x4-block means of the three channels' column sums.
+template <typename S>
+void storeBlockMeans(float* const* sums, float* blockRow, S* planes, S* out, int blocks) {
+    S* p[3] = {planes, planes + blocks, planes + 2 * blocks};
+    for (int c = 0; c < 3; ++c) {
+        blockSums(sums[c], blockRow, blocks);
+        blockMeans(blockRow, p[c], blocks);
+    }
+    const S* src[3] = {p[0], p[1], p[2]};
+    if constexpr (sizeof(S) == 1) cv::hal::merge8u(src, out, blocks, 3);
+    else cv::hal::merge16u(src, out, blocks, 3);
 }
 
 /// @p image itself when it has @p size and @p type (true), else a new buffer (false).
@@ -184,6 +228,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     }
     std::vector<std::uint8_t> scratch(n);
     std::vector<S> samplePlanes(3 * n);
+    std::vector<float> blockRow(n / 4 + 1);
 
     const float full = static_cast<float>((1 << in.bitDepth) - 1);
     const bool measure = in.visibility && !regional;
@@ -254,13 +299,12 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
             }
 
             if (measure) {
-                saturated += countSaturated(b, g, r, w, full);
                 if (reduce) {
-                    for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], w);
-                    if (y % 4 == 3) {
-                        for (int c = 0; c < 3; ++c) blockMeans<S>(sums[c], small.ptr<S>(y / 4) + c, w / 4);
-                        for (float* s : sums) std::fill(s, s + w, 0.0f);
-                    }
+                    saturated += sumAndCount(b, g, r, sums[0], sums[1], sums[2], w, full, y % 4 == 0);
+                    if (y % 4 == 3)
+                        storeBlockMeans(sums, blockRow.data(), samplePlanes.data(), small.ptr<S>(y / 4), w / 4);
+                } else {
+                    saturated += countSaturated(b, g, r, w, full);
                 }
             }
         }

@@ -1,6 +1,9 @@
 #include "Silhouette.h"
 
+#include "KernelClones.h"
+
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -24,6 +27,68 @@ struct Direction {
     int dx, dy;
 };
 constexpr std::array<Direction, 4> kDirections{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
+
+/// One channel's sums over a row of the region: of the target's pixels
+/// (@p target 1), of the background's (@p background 1), and of the squared
+/// differences of target pixels two apart (@p pair 1 at x: x and x + 2 are
+/// the target's). The squares are exact integers; @p big is set when one of
+/// them exceeds 2^24, where the float square the definition uses rounds.
+AVATAR_KERNEL_CLONES void channelSums(const std::uint16_t* __restrict p, const std::uint8_t* __restrict target,
+                                      const std::uint8_t* __restrict background,
+                                      const std::uint8_t* __restrict pair, int n, std::int64_t* __restrict sums,
+                                      bool& big) {
+    std::uint64_t t = 0, b = 0, d = 0;
+    std::uint32_t over = 0;
+    for (int x = 0; x < n; ++x) {
+        t += static_cast<std::uint32_t>(target[x]) * p[x];
+        b += static_cast<std::uint32_t>(background[x]) * p[x];
+    }
+    for (int x = 0; x + 2 < n; ++x) {
+        const std::int32_t e = static_cast<std::int32_t>(p[x]) - static_cast<std::int32_t>(p[x + 2]);
+        const auto a = static_cast<std::uint32_t>(e < 0 ? -e : e);  // a * a < 2^32
+        const std::uint32_t sq = static_cast<std::uint32_t>(pair[x]) * (a * a);
+        d += sq;
+        over |= static_cast<std::uint32_t>(sq > (1u << 24));
+    }
+    sums[0] += static_cast<std::int64_t>(t);
+    sums[1] += static_cast<std::int64_t>(b);
+    sums[2] += static_cast<std::int64_t>(d);
+    big = big || over != 0;
+}
+
+/// cv::erode (@p erode) or cv::dilate of a 0/255 mask with a 5x5 square and
+/// OpenCV's default border (outside pixels never erode nor dilate), as two
+/// separable passes of plain loops: the region is small and cv::erode's
+/// parallel_for_ costs more than the work here.
+void boxMorphology5(const cv::Mat& src, cv::Mat& dst, bool erode) {
+    const int w = src.cols, h = src.rows;
+    const std::uint8_t border = erode ? 255 : 0;
+    cv::Mat horizontal(h + 4, w, CV_8UC1, cv::Scalar(border));  // two rows of border above and below
+    std::vector<std::uint8_t> padded(static_cast<std::size_t>(w) + 4, border);
+    for (int y = 0; y < h; ++y) {
+        std::copy_n(src.ptr<std::uint8_t>(y), w, padded.begin() + 2);
+        std::uint8_t* out = horizontal.ptr<std::uint8_t>(y + 2);
+        const std::uint8_t* p = padded.data();
+        if (erode)
+            for (int x = 0; x < w; ++x)
+                out[x] = std::min(std::min(std::min(p[x], p[x + 1]), std::min(p[x + 2], p[x + 3])), p[x + 4]);
+        else
+            for (int x = 0; x < w; ++x)
+                out[x] = std::max(std::max(std::max(p[x], p[x + 1]), std::max(p[x + 2], p[x + 3])), p[x + 4]);
+    }
+    dst.create(h, w, CV_8UC1);
+    for (int y = 0; y < h; ++y) {
+        const std::uint8_t* r[5];
+        for (int k = 0; k < 5; ++k) r[k] = horizontal.ptr<std::uint8_t>(y + k);
+        std::uint8_t* out = dst.ptr<std::uint8_t>(y);
+        if (erode)
+            for (int x = 0; x < w; ++x)
+                out[x] = std::min(std::min(std::min(r[0][x], r[1][x]), std::min(r[2][x], r[3][x])), r[4][x]);
+        else
+            for (int x = 0; x < w; ++x)
+                out[x] = std::max(std::max(std::max(r[0][x], r[1][x]), std::max(r[2][x], r[3][x])), r[4][x]);
+    }
+}
 
 }  // namespace
 
@@ -53,23 +118,16 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     if (roi.empty()) return out;
 
     // Labels, with a one-pixel frame around the region so that the flood of
-    // the background reaches around the feature.
+    // the background reaches around the feature. Plain loops over the
+    // region's rows (each a cv::compare and a masked setTo before, with their
+    // temporaries: the region is small and this runs for every view of every
+    // target, every frame).
     cv::Mat frame(roi.height + 2, roi.width + 2, CV_8UC1, cv::Scalar(kBackground));
     cv::Mat lab = frame(cv::Rect(1, 1, roi.width, roi.height));
-    // One loop per step over the region's rows (each a cv::compare and a
-    // masked setTo before, with their temporaries: the region is small and
-    // this runs for every view of every target, every frame).
-    const auto eachPixel = [&](auto&& step) {
-        for (int y = 0; y < roi.height; ++y) {
-            std::uint8_t* l = lab.ptr<std::uint8_t>(y);
-            for (int x = 0; x < roi.width; ++x) step(l[x], x, y);
-        }
-    };
     for (int y = 0; y < roi.height; ++y) {
         const std::uint8_t* m = ownMask.ptr<std::uint8_t>(roi.y + y) + roi.x;
         std::uint8_t* l = lab.ptr<std::uint8_t>(y);
-        for (int x = 0; x < roi.width; ++x)
-            if (m[x] != 0) l[x] = 255;
+        for (int x = 0; x < roi.width; ++x) l[x] = m[x] != 0 ? 255 : kBackground;
     }
     const cv::Point seed = feature.boundary[kTopLeft] - roi.tl();
     if (!cv::Rect(0, 0, roi.width, roi.height).contains(seed) || lab.at<std::uint8_t>(seed) != 255) return out;
@@ -87,32 +145,45 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 if (!r.empty()) inBoxes(r - roi.tl()).setTo(cv::Scalar(255));
             }
         const cv::Mat& mask = masks[m];
-        eachPixel([&](std::uint8_t& l, int x, int y) {
-            const bool pixel = ownType ? l == 255 : (mask.at<std::uint8_t>(roi.y + y, roi.x + x) != 0 && l != kFeature);
-            if (!pixel) return;
-            if (inBoxes.at<std::uint8_t>(y, x) != 0) l = kOther;
-            else if (l != kOther) l = kFragment;
-        });
-    }
-    eachPixel([](std::uint8_t& l, int, int) {
-        if (l == 255) l = kFragment;  // a compound's union apart from its seed's part
-    });
-    cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
-    cv::Mat isFeature(roi.size(), CV_8UC1), holes;
-    eachPixel([&](std::uint8_t& l, int x, int y) {
-        if (l == kBackground) {  // holes join the feature
-            if (holes.empty()) holes = cv::Mat::zeros(roi.size(), CV_8UC1);
-            holes.at<std::uint8_t>(y, x) = 255;
-            l = kFeature;
+        for (int y = 0; y < roi.height; ++y) {
+            const std::uint8_t* mk = mask.ptr<std::uint8_t>(roi.y + y) + roi.x;
+            const std::uint8_t* ib = inBoxes.ptr<std::uint8_t>(y);
+            std::uint8_t* l = lab.ptr<std::uint8_t>(y);
+            for (int x = 0; x < roi.width; ++x) {
+                const std::uint8_t v = l[x];
+                const bool pixel = ownType ? v == 255 : (mk[x] != 0 && v != kFeature);
+                const std::uint8_t marked = (ib[x] != 0 || v == kOther) ? kOther : kFragment;
+                l[x] = pixel ? marked : v;
+            }
         }
-        isFeature.at<std::uint8_t>(y, x) = l == kFeature ? 255 : 0;
-    });
+    }
+    // The background connected to the frame; what is left of it is holes.
+    cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
+    cv::Mat isFeature(roi.size(), CV_8UC1), holes(roi.size(), CV_8UC1);
+    bool anyHole = false;
+    for (int y = 0; y < roi.height; ++y) {
+        std::uint8_t* l = lab.ptr<std::uint8_t>(y);
+        std::uint8_t* f = isFeature.ptr<std::uint8_t>(y);
+        std::uint8_t* hl = holes.ptr<std::uint8_t>(y);
+        std::uint8_t rowHoles = 0;
+        for (int x = 0; x < roi.width; ++x) {
+            const std::uint8_t v = l[x];
+            const std::uint8_t hole = v == kBackground ? 255 : 0;  // holes join the feature
+            // 255: a compound's union apart from its seed's part
+            const std::uint8_t joined = hole != 0 ? kFeature : (v == 255 ? kFragment : v);
+            l[x] = joined;
+            hl[x] = hole;
+            f[x] = joined == kFeature ? 255 : 0;
+            rowHoles |= hole;
+        }
+        anyHole = anyHole || rowHoles != 0;
+    }
     // Holes: a hole next to another target's or a fragment's pixels is the
     // seam of mixed pixels between two touching objects, not a hole.
     cv::Mat holeLabels, holeStats;
     std::vector<bool> seam;
     int holeCount = 0;
-    if (!holes.empty()) {
+    if (anyHole) {
         cv::Mat centroids, beside;
         holeCount = cv::connectedComponentsWithStats(holes, holeLabels, holeStats, centroids, 8, CV_32S);
         cv::dilate((lab == kOther) | (lab == kFragment), beside, cv::Mat::ones(3, 3, CV_8UC1));
@@ -146,36 +217,70 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     // noise of one pixel inside the target (pixels two apart, which
     // demosaicing leaves nearly independent).
     cv::Mat inner, near;
-    cv::erode(isFeature, inner, cv::Mat::ones(5, 5, CV_8UC1));
-    cv::dilate(isFeature, near, cv::Mat::ones(5, 5, CV_8UC1));
+    boxMorphology5(isFeature, inner, true);
+    boxMorphology5(isFeature, near, false);
     cv::Vec3d targetSum(0, 0, 0), backgroundSum(0, 0, 0), diffSq(0, 0, 0);
     int targetCount = 0, backgroundCount = 0, diffCount = 0;
     if (wide) {
         // Integer samples: every term below is an integer (a square rounded
         // to float is one too) and every sum stays below 2^53, so integer
         // sums give the very doubles of the float path, in any order.
-        std::int64_t ts[3] = {0, 0, 0}, bs[3] = {0, 0, 0}, ds[3] = {0, 0, 0};
+        // Per row: the samples split into planes and the pixels' roles into 0/1
+        // weights, so that the sums are plain vectorised loops.
+        const auto n = static_cast<std::size_t>(roi.width);
+        std::vector<std::uint16_t> planes(3 * n);
+        std::vector<std::uint8_t> roles(3 * n);
+        std::uint8_t* isTarget = roles.data();
+        std::uint8_t* isBackground = isTarget + n;
+        std::uint8_t* isPair = isBackground + n;
+        std::int64_t sums[3][3] = {};  // [channel][target, background, pairs]
         for (int y = 0; y < roi.height; ++y) {
             const std::uint8_t* in = inner.ptr<std::uint8_t>(y);
             const std::uint8_t* nr = near.ptr<std::uint8_t>(y);
             const std::uint8_t* lb = lab.ptr<std::uint8_t>(y);
-            const cv::Vec3w* px = bgr.ptr<cv::Vec3w>(roi.y + y) + roi.x;
+            int tc = 0, bc = 0, dc = 0;
             for (int x = 0; x < roi.width; ++x) {
-                if (in[x]) {
-                    for (int c = 0; c < 3; ++c) ts[c] += px[x][c];
-                    ++targetCount;
-                    if (x + 2 < roi.width && in[x + 2]) {
-                        for (int c = 0; c < 3; ++c) {
-                            const float d = static_cast<float>(px[x][c]) - static_cast<float>(px[x + 2][c]);
-                            ds[c] += static_cast<std::int64_t>(d * d);
-                        }
-                        ++diffCount;
-                    }
-                } else if (!nr[x] && lb[x] == kOutside) {
-                    for (int c = 0; c < 3; ++c) bs[c] += px[x][c];
-                    ++backgroundCount;
-                }
+                const std::uint8_t t = in[x] != 0 ? 1 : 0;
+                const std::uint8_t b = (in[x] == 0 && nr[x] == 0 && lb[x] == kOutside) ? 1 : 0;
+                const std::uint8_t d = (x + 2 < roi.width && t != 0 && in[x + 2] != 0) ? 1 : 0;
+                isTarget[x] = t;
+                isBackground[x] = b;
+                isPair[x] = d;
+                tc += t;
+                bc += b;
+                dc += d;
             }
+            targetCount += tc;
+            backgroundCount += bc;
+            diffCount += dc;
+            if (tc + bc == 0) continue;
+            std::uint16_t* plane[3] = {planes.data(), planes.data() + n, planes.data() + 2 * n};
+            cv::hal::split16u(bgr.ptr<std::uint16_t>(roi.y + y) + 3 * roi.x, plane, roi.width, 3);
+            bool big = false;
+            std::int64_t pairs[3] = {0, 0, 0};
+            for (int c = 0; c < 3; ++c) {
+                std::int64_t row[3] = {0, 0, 0};
+                channelSums(plane[c], isTarget, isBackground, isPair, roi.width, row, big);
+                sums[c][0] += row[0];
+                sums[c][1] += row[1];
+                pairs[c] = row[2];
+            }
+            if (big)  // a square above 2^24: the float square, rounded as the definition's
+                for (int c = 0; c < 3; ++c) {
+                    pairs[c] = 0;
+                    for (int x = 0; x + 2 < roi.width; ++x)
+                        if (isPair[x] != 0) {
+                            const float e = static_cast<float>(plane[c][x]) - static_cast<float>(plane[c][x + 2]);
+                            pairs[c] += static_cast<std::int64_t>(e * e);
+                        }
+                }
+            for (int c = 0; c < 3; ++c) sums[c][2] += pairs[c];
+        }
+        std::int64_t ts[3], bs[3], ds[3];
+        for (int c = 0; c < 3; ++c) {
+            ts[c] = sums[c][0];
+            bs[c] = sums[c][1];
+            ds[c] = sums[c][2];
         }
         for (int c = 0; c < 3; ++c) {
             targetSum[c] = static_cast<double>(ts[c]);
@@ -383,7 +488,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         }
     }
     out.region = roi;
-    out.labels = lab.clone();
+    out.labels = lab;  // a view of the frame, which nothing else keeps
     const double binaryArea = static_cast<double>(pixelCount);
     const double sumX = static_cast<double>(pixelSumX), sumY = static_cast<double>(pixelSumY);
     if (binaryArea <= 0.0) return out;
