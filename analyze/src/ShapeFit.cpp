@@ -47,10 +47,11 @@ void eigen3(const cv::Matx33d& m, cv::Vec3d& values, cv::Matx33d& vectors) {
 
 }  // namespace
 
-cv::Matx33d ellipseConic(const cv::RotatedRect& e, double f, const cv::Point2d& offset) {
-    const double a = 0.5 * e.size.width / f, b = 0.5 * e.size.height / f;
-    const double theta = e.angle * CV_PI / 180.0;
-    const double cx = e.center.x / f + offset.x, cy = e.center.y / f + offset.y;
+namespace {
+
+/// The conic of the ellipse of centre (cx, cy), semi-axes a, b and angle
+/// theta (rad), all in normalised coordinates.
+cv::Matx33d conicOf(double cx, double cy, double a, double b, double theta) {
     const double ct = std::cos(theta), st = std::sin(theta);
     const cv::Matx22d R(ct, -st, st, ct);
     const cv::Matx22d D(1.0 / (a * a), 0, 0, 1.0 / (b * b));
@@ -61,13 +62,79 @@ cv::Matx33d ellipseConic(const cv::RotatedRect& e, double f, const cv::Point2d& 
     return {A(0, 0), A(0, 1), -Ac[0], A(1, 0), A(1, 1), -Ac[1], -Ac[0], -Ac[1], k};
 }
 
+}  // namespace
+
+cv::Matx33d ellipseConic(const cv::RotatedRect& e, double f, const cv::Point2d& offset) {
+    return conicOf(e.center.x / f + offset.x, e.center.y / f + offset.y, 0.5 * e.size.width / f,
+                   0.5 * e.size.height / f, e.angle * CV_PI / 180.0);
+}
+
+namespace {
+
+/// The weighted least-squares covariance of the parameters of ellipse @p e
+/// fitted to @p points with position variances @p variances along the
+/// ellipse's normal: (J^T W J)^-1, J the derivatives of each point's distance
+/// from the ellipse (at the ellipse point of the same angle parameter) with
+/// respect to centre, semi-axes and angle. Zero when singular.
+cv::Matx<double, 5, 5> parameterCovariance(const cv::RotatedRect& e, const std::vector<cv::Point2f>& points,
+                                           const std::vector<double>& variances) {
+    const double th = e.angle * CV_PI / 180.0, ct = std::cos(th), st = std::sin(th);
+    const double a = 0.5 * e.size.width, b = 0.5 * e.size.height;
+    const cv::Vec2d u(ct, st), v(-st, ct);
+    cv::Matx<double, 5, 5> information = cv::Matx<double, 5, 5>::zeros();
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const double t = positionOn(e, points[i]).angle;
+        const double c = std::cos(t), s = std::sin(t);
+        cv::Vec2d n = u * (c / a) + v * (s / b);  // outward normal at the ellipse point
+        n *= 1.0 / cv::norm(n);
+        // How the ellipse point moves with each parameter; the distance changes by minus its normal part.
+        const cv::Vec2d moves[5] = {{1.0, 0.0}, {0.0, 1.0}, u * c, v * s, v * (a * c) - u * (b * s)};
+        cv::Vec<double, 5> j;
+        for (int k = 0; k < 5; ++k) j[k] = -n.dot(moves[k]);
+        information += (j * j.t()) * (1.0 / std::max(variances[i], 1e-4));
+    }
+    bool ok = false;
+    const cv::Matx<double, 5, 5> covariance = information.inv(cv::DECOMP_CHOLESKY, &ok);
+    return ok ? covariance : cv::Matx<double, 5, 5>::zeros();
+}
+
+}  // namespace
+
+std::optional<cv::Matx22d> modelPointCovariance(
+    const EllipseFit& fit, double f, const std::function<std::optional<cv::Point2d>(const cv::Matx33d&)>& modelPoint) {
+    if (!fit.ok) return std::nullopt;
+    const double p0[5] = {fit.ideal.center.x / f, fit.ideal.center.y / f, 0.5 * fit.ideal.size.width / f,
+                          0.5 * fit.ideal.size.height / f, fit.ideal.angle * CV_PI / 180.0};
+    // Parameter scales: the covariance is in ideal pixels (and rad).
+    const double scale[5] = {1.0 / f, 1.0 / f, 1.0 / f, 1.0 / f, 1.0};
+    const double step[5] = {0.01, 0.01, 0.01, 0.01, 1e-4};  // px, px, px, px, rad
+    cv::Matx<double, 2, 5> g;
+    for (int k = 0; k < 5; ++k) {
+        double plus[5], minus[5];
+        std::copy(p0, p0 + 5, plus);
+        std::copy(p0, p0 + 5, minus);
+        plus[k] += step[k] * scale[k];
+        minus[k] -= step[k] * scale[k];
+        const auto hi = modelPoint(conicOf(plus[0], plus[1], plus[2], plus[3], plus[4]));
+        const auto lo = modelPoint(conicOf(minus[0], minus[1], minus[2], minus[3], minus[4]));
+        if (!hi || !lo) return std::nullopt;
+        g(0, k) = (hi->x - lo->x) / (2.0 * step[k]);
+        g(1, k) = (hi->y - lo->y) / (2.0 * step[k]);
+    }
+    return g * fit.parameterCovariance * g.t();
+}
+
 EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlinePoint>& outline,
                       double minThresholdPx) {
     EllipseFit fit;
     const double f = camera.fc[0];
     std::vector<cv::Point2d> normalised;
+    std::vector<double> variances;  // of each point's position, px^2
     for (const OutlinePoint& p : outline)
-        if (p.kind == EdgeKind::Free) normalised.push_back(normalizePixel(camera, p.px));
+        if (p.kind == EdgeKind::Free) {
+            normalised.push_back(normalizePixel(camera, p.px));
+            variances.push_back(p.sigmaPx * p.sigmaPx);
+        }
     fit.points = static_cast<int>(normalised.size());
     if (fit.points < 10) return fit;
     cv::Point2d mean(0, 0);
@@ -107,11 +174,15 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
     fit.ok = true;
     fit.thresholdPx = threshold;
     double sum = 0.0;
+    std::vector<cv::Point2f> inliers;
+    std::vector<double> inlierVariances;
     for (std::size_t i = 0; i < ideal.size(); ++i) {
         r[i] = positionOn(e, ideal[i]).distance;
         if (std::abs(r[i]) <= threshold) {
             ++fit.inliers;
             sum += r[i] * r[i];
+            inliers.push_back(ideal[i]);
+            inlierVariances.push_back(variances[i]);
         } else if (r[i] > 0.0) {
             ++fit.excessPoints;
         } else {
@@ -123,6 +194,7 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
                                             e.center.y + static_cast<float>(mean.y * f)),
                                 e.size, e.angle);
     fit.conic = ellipseConic(e, f, mean);
+    fit.parameterCovariance = parameterCovariance(e, inliers, inlierVariances);
     return fit;
 }
 

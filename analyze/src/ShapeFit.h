@@ -41,7 +41,20 @@ struct EllipseFit {
     int points{0}, inliers{0};
     int excessPoints{0};        ///< free points outside the ellipse beyond the limit
     int deficitPoints{0};       ///< free points inside it beyond the limit
+    /// Covariance of the ellipse's parameters (centre x, y and semi-axes in
+    /// ideal pixels, angle in rad; @p ideal's order and axes) from the
+    /// inliers' position noise (OutlinePoint::sigmaPx), each point taken as
+    /// independent: the weighted least-squares covariance of a geometric fit.
+    cv::Matx<double, 5, 5> parameterCovariance;
 };
+
+/// The covariance (normalised coordinates squared) of a point that
+/// @p modelPoint computes from an ellipse's conic (undistorted normalised
+/// coordinates; the sphere's cone axis, the disc's centre image), propagated
+/// from @p fit's parameter covariance by central differences; null when the
+/// point cannot be computed near the fit.
+std::optional<cv::Matx22d> modelPointCovariance(
+    const EllipseFit& fit, double f, const std::function<std::optional<cv::Point2d>(const cv::Matx33d&)>& modelPoint);
 
 /// What the image shows at a point (distorted pixels).
 using PixelProbe = std::function<EdgeKind(const cv::Point2d& px, bool& ownFeature)>;

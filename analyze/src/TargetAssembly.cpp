@@ -525,6 +525,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     cv::Point2d pl, pr;  // normalised image points of a model, or pixels of centroids
     bool normalised = false;
     ShapeModel model = ShapeModel::None;
+    cv::Vec3d discNormal;  // the disc model's plane normal (left camera frame)
     // A partial round target is still located by its model when most of
     // each outline is its own: its best estimate (it is not flagged whole).
     if (round && views[0].modelUsable && views[1].modelUsable) {
@@ -546,6 +547,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             disc = calculator_.triangulateNormalized(d->centreLeft, d->centreRight);
             dl = d->centreLeft;
             dr = d->centreRight;
+            discNormal = d->normalLeft;
         }
         const bool sphereFirst = declared == TargetShape::Sphere;
         if (sphereFirst && sphere) { point = sphere; pl = sl; pr = sr; model = ShapeModel::Sphere; }
@@ -609,9 +611,32 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const cv::Matx22d covL = views[0].silhouette.centroidCovariance, covR = views[1].silhouette.centroidCovariance;
     std::optional<cv::Matx33d> cov;
     if (normalised) {
+        // A model's point is as uncertain as the ellipse fit makes it: the
+        // outline points' noise propagated through the fit and the model
+        // (a sphere's cone axis is steadier than its silhouette's centroid),
+        // times the model's factor for the correlation of neighbouring
+        // points' noise.
+        std::optional<cv::Matx22d> ml, mr;
+        if (model == ShapeModel::Sphere) {
+            const auto axis = [](const cv::Matx33d& conic) -> std::optional<cv::Point2d> {
+                const auto cone = sphereCone(conic);
+                if (!cone) return std::nullopt;
+                return cone->axis;
+            };
+            ml = modelPointCovariance(views[0].fit, config_.stereo.left.fc[0], axis);
+            mr = modelPointCovariance(views[1].fit, config_.stereo.right.fc[0], axis);
+        } else {
+            const cv::Vec3d normalRight = rightRLeft_ * discNormal;
+            ml = modelPointCovariance(views[0].fit, config_.stereo.left.fc[0],
+                                      [&](const cv::Matx33d& conic) { return circleCentre(conic, discNormal); });
+            mr = modelPointCovariance(views[1].fit, config_.stereo.right.fc[0],
+                                      [&](const cv::Matx33d& conic) { return circleCentre(conic, normalRight); });
+        }
         const double fl2 = config_.stereo.left.fc[0] * config_.stereo.left.fc[0];
         const double fr2 = config_.stereo.right.fc[0] * config_.stereo.right.fc[0];
-        cov = calculator_.covarianceNormalized(pl, pr, covL * (1.0 / fl2), covR * (1.0 / fr2));
+        const double k = model == ShapeModel::Sphere ? limits_.sphereFitCorrelation : limits_.discFitCorrelation;
+        cov = calculator_.covarianceNormalized(pl, pr, ml ? *ml * k : covL * (1.0 / fl2),
+                                               mr ? *mr * k : covR * (1.0 / fr2));
     } else {
         cov = calculator_.covariancePixels(pl, pr, covL, covR);
     }

@@ -72,6 +72,13 @@ struct CompletenessLimits {
     /// Variance factor of the centroid covariance (see measureSilhouette()):
     /// measured, trust_report --covariance 20 --seed 21 (docs/accuracy.md).
     double centroidCorrelation{15.0};
+    /// The same for a round model's point, whose covariance is propagated
+    /// from the outline through the ellipse fit (modelPointCovariance()):
+    /// measured per model, trust_report --covariance 40 --seed 21. A
+    /// sphere's shaded limb needs more: its edges are placed against the
+    /// colour a few pixels inside, which neighbouring edge points share.
+    double sphereFitCorrelation{38.0};
+    double discFitCorrelation{20.0};
 };
 
 /// Which of @p types' filters (their search windows are ignored) pass the

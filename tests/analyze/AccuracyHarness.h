@@ -403,6 +403,79 @@ inline render::Scene precisionScene() {
     return s;
 }
 
+/// The truth target (any type) whose visible silhouette centroid is nearest
+/// to @p px within half its equivalent radius + 2 px; -1 if none.
+inline int nearestTruth(const render::GroundTruth& truth, Side side, const cv::Point2d& px) {
+    int best = -1;
+    double bestD = std::numeric_limits<double>::max();
+    for (std::size_t i = 0; i < truth.targets.size(); ++i) {
+        const render::TargetView& v = side == Side::Left ? truth.targets[i].left : truth.targets[i].right;
+        if (!v.silhouetteCentroidPx) continue;
+        const double d = cv::norm(*v.silhouetteCentroidPx - px);
+        if (d <= 0.5 * std::sqrt(v.areaPx / CV_PI) + 2.0 && d < bestD) {
+            bestD = d;
+            best = static_cast<int>(i);
+        }
+    }
+    return best;
+}
+
+/// One target's predicted position sigma against its spread over noise seeds.
+struct SigmaCheck {
+    std::string name;
+    render::Shape shape{render::Shape::Sphere};
+    std::size_t n{0};          ///< noise seeds it was found whole in
+    cv::Point3d measuredMm;    ///< standard deviation over the seeds per axis (left camera frame)
+    cv::Point3d predictedMm;   ///< RMS of the predicted sigmas (covarianceVisionMm2's diagonal)
+    cv::Point3d ratio() const {
+        return {measuredMm.x / predictedMm.x, measuredMm.y / predictedMm.y, measuredMm.z / predictedMm.z};
+    }
+};
+
+/// The precision scene rendered with @p seeds' noise and analysed with
+/// scorpion.xml, every type declared a sphere (so spheres take the sphere
+/// model and the tilted discs the disc model): per target found whole, the
+/// spread of its positions against the covariance the analysis predicted.
+inline std::vector<SigmaCheck> sigmaOverNoiseSeeds(const std::vector<std::uint64_t>& seeds) {
+    AvatarConfig config = readConfigFile(dataDir() / "config/scorpion.xml");
+    for (auto& t : config.targets.targets) t.shape = TargetShape::Sphere;
+    AnalyzeStereoImagePair analysis(config);
+    const render::Scene scene = precisionScene();
+    render::RenderOptions options;
+    options.sensor = render::sensorFormatFrom(config.camera);
+    std::vector<std::vector<cv::Point3d>> points(scene.targets.size());
+    std::vector<cv::Point3d> variance(scene.targets.size(), cv::Point3d(0, 0, 0));
+    std::vector<render::Shape> shapes(scene.targets.size());
+    for (std::size_t k = 0; k < seeds.size(); ++k) {
+        options.seed = seeds[k];
+        const render::RenderResult rr = render::render(scene, config.stereo, options);
+        const VisionTargets result = analysis.analyze(rr.pair, k);
+        for (const VisionTarget& v : result.targets) {
+            if (!(v.flags & kTargetWhole) || !v.covarianceVisionMm2 || !v.positionVisionMm) continue;
+            const int i = nearestTruth(rr.truth, Side::Left, *v.centroidLeftPx);
+            if (i < 0) continue;
+            const auto u = static_cast<std::size_t>(i);
+            shapes[u] = rr.truth.targets[u].shape;
+            points[u].push_back(*v.positionVisionMm);
+            const auto& c = *v.covarianceVisionMm2;
+            variance[u] += cv::Point3d(c(0, 0), c(1, 1), c(2, 2));
+        }
+    }
+    std::vector<SigmaCheck> out;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        if (points[i].size() < 2) continue;
+        SigmaCheck c;
+        c.name = scene.targets[i].name;
+        c.shape = shapes[i];
+        c.n = points[i].size();
+        c.measuredMm = spread(points[i]).sigmaMm;
+        const cv::Point3d var = variance[i] * (1.0 / static_cast<double>(c.n));
+        c.predictedMm = {std::sqrt(var.x), std::sqrt(var.y), std::sqrt(var.z)};
+        out.push_back(c);
+    }
+    return out;
+}
+
 /// The sphere-bias scene: one large sphere near and far off the optical axis
 /// (towards the top-right corner of the left image, so that the right camera,
 /// a baseline to the right, sees it whole too), the case where its silhouette

@@ -176,6 +176,33 @@ TEST(Accuracy, ShapeCorrectionRemovesTheSphereSilhouetteBias) {
     }
 }
 
+// Issue 10: every stereo target carries the covariance of its position, the
+// edge noise propagated through its model (centroid, or the ellipse fit of a
+// sphere or disc) and the triangulation. Against the spread over 30 noise
+// seeds of the precision scene (seeds not used to choose the models' variance
+// factors, which came from trust_report --covariance 40 --seed 21): each
+// target's predicted sigma (the three axes together) within 30 % of the
+// measured one, no single axis off by half. 30 seeds measure a sigma to
+// about 13 %.
+TEST(Accuracy, PredictedSigmaMatchesTheSpreadOverNoiseSeeds) {
+    std::vector<std::uint64_t> seeds;
+    for (std::uint64_t k = 0; k < 30; ++k) seeds.push_back(7000 + k);
+    const std::vector<SigmaCheck> checks = sigmaOverNoiseSeeds(seeds);
+    ASSERT_EQ(checks.size(), 6u);
+    int spheres = 0, discs = 0;
+    for (const SigmaCheck& c : checks) {
+        spheres += c.shape == render::Shape::Sphere ? 1 : 0;
+        discs += c.shape == render::Shape::Disc ? 1 : 0;
+        EXPECT_GE(c.n, 28u) << c.name << " was not found whole often enough";
+        const double ratio = cv::norm(c.measuredMm) / cv::norm(c.predictedMm);
+        EXPECT_NEAR(ratio, 1.0, 0.3) << c.name << " measured " << c.measuredMm << " predicted " << c.predictedMm;
+        const cv::Point3d r = c.ratio();
+        for (double v : {r.x, r.y, r.z}) EXPECT_NEAR(v, 1.0, 0.5) << c.name;
+    }
+    EXPECT_EQ(spheres, 4);
+    EXPECT_EQ(discs, 2);
+}
+
 // Thesis 6.1.3: the same scene measured again with independent noise. Ten
 // noise seeds; every target at 0.65-0.95 m must scatter by at most 0.5 mm
 // (sigma magnitude; the thesis reported 2.6-3.8 mm). Measured: <= ~0.2 mm.

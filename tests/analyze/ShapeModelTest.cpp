@@ -17,6 +17,7 @@
 
 #include <cmath>
 #include <optional>
+#include <random>
 #include <string>
 
 namespace avatar {
@@ -163,6 +164,73 @@ TEST(ShapeModel, DiscCentreIsThePoleOfTheVanishingLineNotTheEllipseCentre) {
     const cv::Point2d ellipseCentreL(fits[0].ideal.center.x / cfg.stereo.left.fc[0],
                                      fits[0].ideal.center.y / cfg.stereo.left.fc[0]);
     EXPECT_GT(cv::norm(normalizedToPixel(cfg.stereo.left, ellipseCentreL) - *t.left.projectedCentrePx), 1.0);
+}
+
+// The covariance propagated through the ellipse fit against Monte Carlo:
+// outline points of a known ellipse, each moved along its normal by noise of
+// the sigma it states, fitted 400 times. The spread of the fitted centre and
+// of a sphere model's cone axis must be what parameterCovariance and
+// modelPointCovariance predict (400 trials measure a sigma to about 4 %).
+TEST(ShapeModel, FitCovarianceMatchesTheSpreadOfNoisyOutlines) {
+    const AvatarConfig cfg = config(TargetShape::Sphere);
+    CameraIntrinsics camera = cfg.stereo.left;
+    camera.kc = {0, 0, 0, 0, 0};
+    const double f = camera.fc[0];
+    const cv::Point2d centre(820.0, 430.0);
+    const double a = 42.0, b = 31.0, theta = 0.5, sigma = 0.25;
+    std::mt19937 rng(12);
+    std::normal_distribution<double> noise(0.0, sigma);
+    const auto axis = [](const cv::Matx33d& conic) -> std::optional<cv::Point2d> {
+        const auto cone = detail::sphereCone(conic);
+        if (!cone) return std::nullopt;
+        return cone->axis;
+    };
+    std::vector<cv::Point2d> centres, axes;
+    cv::Matx22d predictedCentre(0, 0, 0, 0), predictedAxis(0, 0, 0, 0);
+    const int trials = 400;
+    for (int k = 0; k < trials; ++k) {
+        std::vector<detail::OutlinePoint> outline;
+        for (int i = 0; i < 240; ++i) {
+            const double t = 2.0 * CV_PI * i / 240.0;
+            const cv::Vec2d u(std::cos(theta), std::sin(theta)), v(-std::sin(theta), std::cos(theta));
+            const cv::Vec2d p = u * (a * std::cos(t)) + v * (b * std::sin(t));
+            cv::Vec2d n = u * (std::cos(t) / a) + v * (std::sin(t) / b);
+            n *= 1.0 / cv::norm(n);
+            const cv::Vec2d q = p + n * noise(rng);
+            outline.push_back({{centre.x + q[0], centre.y + q[1]}, detail::EdgeKind::Free, sigma});
+        }
+        const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
+        ASSERT_TRUE(fit.ok);
+        ASSERT_GE(fit.inliers, 234);  // a point beyond 3 sigma now and then
+        centres.emplace_back(fit.ideal.center.x, fit.ideal.center.y);
+        const auto ax = axis(fit.conic);
+        ASSERT_TRUE(ax);
+        axes.push_back(*ax * f);
+        predictedCentre += cv::Matx22d(fit.parameterCovariance(0, 0), fit.parameterCovariance(0, 1),
+                                       fit.parameterCovariance(1, 0), fit.parameterCovariance(1, 1));
+        const auto c = detail::modelPointCovariance(fit, f, axis);
+        ASSERT_TRUE(c);
+        predictedAxis += *c * (f * f);
+    }
+    predictedCentre *= 1.0 / trials;
+    predictedAxis *= 1.0 / trials;
+    const auto measured = [](const std::vector<cv::Point2d>& p) {
+        cv::Point2d mean(0, 0);
+        for (const auto& q : p) mean += q;
+        mean *= 1.0 / static_cast<double>(p.size());
+        cv::Point2d var(0, 0);
+        for (const auto& q : p) var += cv::Point2d((q - mean).x * (q - mean).x, (q - mean).y * (q - mean).y);
+        var *= 1.0 / static_cast<double>(p.size() - 1);
+        return cv::Point2d(std::sqrt(var.x), std::sqrt(var.y));
+    };
+    const cv::Point2d mc = measured(centres), ma = measured(axes);
+    // About sigma / sqrt(points / 2): a few hundredths of a pixel.
+    EXPECT_GT(mc.x, 0.01);
+    EXPECT_LT(mc.x, 0.05);
+    EXPECT_NEAR(mc.x / std::sqrt(predictedCentre(0, 0)), 1.0, 0.12);
+    EXPECT_NEAR(mc.y / std::sqrt(predictedCentre(1, 1)), 1.0, 0.12);
+    EXPECT_NEAR(ma.x / std::sqrt(predictedAxis(0, 0)), 1.0, 0.12);
+    EXPECT_NEAR(ma.y / std::sqrt(predictedAxis(1, 1)), 1.0, 0.12);
 }
 
 // 16-bit samples are read in place with integer sums; any other depth goes
