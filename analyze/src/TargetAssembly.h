@@ -70,8 +70,9 @@ struct CompletenessLimits {
     double minHoleColourLog{0.5};
     double holeNoiseFactor{4.0};
     /// Variance factor of the centroid covariance (see measureSilhouette()):
-    /// measured, trust_report --covariance 20 --seed 21 (docs/accuracy.md).
-    double centroidCorrelation{15.0};
+    /// measured, trust_report --covariance 40 --seed 21
+    /// --covariance-centroids (docs/accuracy.md).
+    double centroidCorrelation{66.0};
     /// The same for a round model's point, whose covariance is propagated
     /// from the outline through the ellipse fit (modelPointCovariance()):
     /// measured per model, trust_report --covariance 40 --seed 21. A

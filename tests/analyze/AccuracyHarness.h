@@ -433,14 +433,19 @@ struct SigmaCheck {
 };
 
 /// The precision scene rendered with @p seeds' noise and analysed with
-/// scorpion.xml, every type declared a sphere (so spheres take the sphere
-/// model and the tilted discs the disc model): per target found whole, the
-/// spread of its positions against the covariance the analysis predicted.
-inline std::vector<SigmaCheck> sigmaOverNoiseSeeds(const std::vector<std::uint64_t>& seeds) {
+/// scorpion.xml, every type declared @p declared (a sphere: spheres take the
+/// sphere model and the tilted discs the disc model; unknown: every target
+/// placed by its centroids), its targets @p rangeScale times as far: per
+/// target found whole, the spread of its positions against the covariance
+/// the analysis predicted.
+inline std::vector<SigmaCheck> sigmaOverNoiseSeeds(const std::vector<std::uint64_t>& seeds,
+                                                   TargetShape declared = TargetShape::Sphere,
+                                                   double rangeScale = 1.0) {
     AvatarConfig config = readConfigFile(dataDir() / "config/scorpion.xml");
-    for (auto& t : config.targets.targets) t.shape = TargetShape::Sphere;
+    for (auto& t : config.targets.targets) t.shape = declared;
     AnalyzeStereoImagePair analysis(config);
-    const render::Scene scene = precisionScene();
+    render::Scene scene = precisionScene();
+    for (auto& t : scene.targets) t.centreMm *= rangeScale;
     render::RenderOptions options;
     options.sensor = render::sensorFormatFrom(config.camera);
     std::vector<std::vector<cv::Point3d>> points(scene.targets.size());

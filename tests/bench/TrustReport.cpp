@@ -14,7 +14,9 @@
 //    used, and the predicted position sigma against the error.
 //
 //   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR]
-//   trust_report --covariance REPEATS [--seed S]   (predicted sigma against the spread)
+//   trust_report --covariance REPEATS [--seed S] [--covariance-centroids] [--covariance-range SCALE]
+//                (predicted sigma against the spread; every target placed by its
+//                centroids; the targets SCALE times as far)
 
 #include "../analyze/AccuracyHarness.h"
 
@@ -50,6 +52,8 @@ struct Options {
     bool verbose{false};
     std::string dumpDir;  ///< non-empty: crops of each false or missed target are written there
     int covarianceRepeats{0};  ///< > 0: only the covariance check, with this many noise seeds
+    TargetShape covarianceShape{TargetShape::Sphere};  ///< what its types are declared
+    double covarianceRange{1.0};                       ///< its targets this many times as far
 };
 
 /// The colours; "yellow" targets are ducks (a composite shape), the others
@@ -394,16 +398,17 @@ std::vector<Hit> inRange(const std::vector<Hit>& hits, double lo, double hi, boo
 /// precision scene (six yellow spheres and discs, 0.65-0.95 m) rendered
 /// @p repeats times; per target and axis, the measured standard deviation
 /// over the RMS of the predicted ones.
-void runCovariance(std::uint64_t seed, int repeats) {
+void runCovariance(std::uint64_t seed, int repeats, TargetShape declared, double rangeScale) {
     std::vector<std::uint64_t> seeds;
     for (int k = 0; k < repeats; ++k) seeds.push_back(renderSeed(seed, static_cast<std::size_t>(k)));
-    std::printf("\n## Predicted sigma against the spread over %d noise seeds (seed %llu)\n\n", repeats,
-                static_cast<unsigned long long>(seed));
+    std::printf("\n## Predicted sigma against the spread over %d noise seeds (seed %llu, types declared %s, %.2gx the range)\n\n",
+                repeats, static_cast<unsigned long long>(seed),
+                declared == TargetShape::None ? "none: centroids" : "sphere: round models", rangeScale);
     std::printf("| target | shape | n | measured sx sy sz mm | predicted sx sy sz mm | measured / predicted x y z |\n");
     std::printf("|---|---|---|---|---|---|\n");
     std::vector<double> ratios;
     int within = 0;
-    for (const SigmaCheck& c : sigmaOverNoiseSeeds(seeds)) {
+    for (const SigmaCheck& c : sigmaOverNoiseSeeds(seeds, declared, rangeScale)) {
         const cv::Point3d r = c.ratio();
         for (double v : {r.x, r.y, r.z}) {
             ratios.push_back(v);
@@ -462,7 +467,7 @@ void dumpCrops(const std::string& dir, const render::GroundTruth& truth, const A
 }
 
 void usage() {
-    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR] [--covariance REPEATS]\n");
+    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR] [--covariance REPEATS [--covariance-centroids] [--covariance-range SCALE]]\n");
 }
 
 }  // namespace
@@ -489,6 +494,8 @@ int main(int argc, char** argv) {
         }
         else if (a == "--dump") o.dumpDir = value();
         else if (a == "--covariance") o.covarianceRepeats = std::atoi(value().c_str());
+        else if (a == "--covariance-centroids") o.covarianceShape = TargetShape::None;
+        else if (a == "--covariance-range") o.covarianceRange = std::atof(value().c_str());
         else if (a == "--help" || a == "-h") {
             usage();
             return 0;
@@ -506,7 +513,7 @@ int main(int argc, char** argv) {
         const AvatarConfig scorpion = readConfigFile(dataDir() / "config/scorpion.xml");
         const render::SensorFormat sensor = render::sensorFormatFrom(scorpion.camera);
         if (o.covarianceRepeats > 1) {
-            runCovariance(o.seed, o.covarianceRepeats);
+            runCovariance(o.seed, o.covarianceRepeats, o.covarianceShape, o.covarianceRange);
             return 0;
         }
         std::printf("# AVATAR trust report\n\nFilters from %d training scenes of seed %llu (R/G, B/G, pixels):\n\n",
