@@ -90,6 +90,7 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     for (Side side : {Side::Left, Side::Right}) frame.at(side).image = pair.image(side);
     frame.result.iteration = iteration;
     frame.result.acquisition = pair.id();
+    frame.wholeImagesWanted = keepWholeImages_;
     tracker_->begin(frame);
 
     // Consecutive stages whose sides are independent run as one batch: every
@@ -167,15 +168,41 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     return frame_.result;
 }
 
-StereoImagePair AnalyzeStereoImagePair::filteredImages(const AnalysisFrame& frame) {
+StereoImagePair AnalyzeStereoImagePair::workingImages(const AnalysisFrame& frame) {
     if (frame.original.empty()) return {};
     std::array<cv::Mat, 2> out;
     for (Side side : {Side::Left, Side::Right}) {
+        if (!frame.imagesAroundFeatures) {
+            out[side == Side::Left ? 0 : 1] = frame.at(side).image;
+            continue;
+        }
+        // The fused front end's pass again, for the image alone.
+        detail::FrontEndInput in;
+        in.mosaic = frame.original.image(side);
+        in.pattern = frame.layout.bayerPattern;
+        in.bitDepth = frame.layout.bitDepth;
+        in.endianSwap = frame.samplesByteSwapped;
+        in.factors = frame.mosaicLightingFactors.empty() ? nullptr : &frame.mosaicLightingFactors;
+        detail::FrontEndResult whole;
+        detail::runFrontEnd(in, whole);
+        out[side == Side::Left ? 0 : 1] = whole.bgr;
+    }
+    PairLayout layout = frame.layout;
+    layout.format = PixelFormat::Bgr;
+    return StereoImagePair(out[0], out[1], layout, frame.original.id());
+}
+
+StereoImagePair AnalyzeStereoImagePair::filteredImages(const AnalysisFrame& frame) {
+    if (frame.original.empty()) return {};
+    const StereoImagePair images = workingImages(frame);
+    std::array<cv::Mat, 2> out;
+    for (Side side : {Side::Left, Side::Right}) {
         const ImageWork& w = frame.at(side);
-        cv::Mat unionMask = cv::Mat::zeros(w.image.size(), CV_8UC1);
+        const cv::Mat& image = images.image(side);
+        cv::Mat unionMask = cv::Mat::zeros(image.size(), CV_8UC1);
         for (const cv::Mat& m : w.masks) cv::bitwise_or(unionMask, m, unionMask);
-        cv::Mat filtered = cv::Mat::zeros(w.image.size(), w.image.type());
-        w.image.copyTo(filtered, unionMask);
+        cv::Mat filtered = cv::Mat::zeros(image.size(), image.type());
+        image.copyTo(filtered, unionMask);
         out[side == Side::Left ? 0 : 1] = filtered;
     }
     return StereoImagePair(out[0], out[1], frame.layout, frame.original.id());
@@ -185,10 +212,11 @@ StereoImagePair AnalyzeStereoImagePair::markedImages(const AnalysisFrame& frame)
     if (frame.original.empty()) return {};
     static const cv::Scalar kColours[] = {{0, 255, 255}, {255, 0, 255}, {255, 255, 0},
                                           {0, 128, 255}, {255, 128, 0}, {128, 255, 0}};
+    const StereoImagePair images = workingImages(frame);
     std::array<cv::Mat, 2> out;
     for (Side side : {Side::Left, Side::Right}) {
         const ImageWork& w = frame.at(side);
-        cv::Mat display = toDisplay8(w.image, frame.layout.bitDepth);
+        cv::Mat display = toDisplay8(images.image(side), frame.layout.bitDepth);
         if (display.channels() == 1) cv::cvtColor(display, display, cv::COLOR_GRAY2BGR);
         for (std::size_t t = 0; t < w.features.size(); ++t) {
             const cv::Scalar colour = kColours[t % 6];

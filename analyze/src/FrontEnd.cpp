@@ -202,7 +202,9 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     const int depth = mosaic.depth();
     const std::size_t n = static_cast<std::size_t>(w);
     const bool regional = in.regions != nullptr && !in.regions->empty();
-    const bool bgrClear = prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3)) && out.bgrZeroOutsideRegions;
+    const bool writeImage = in.writeImage || regional;
+    const bool bgrClear = writeImage && prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3)) &&
+                          out.bgrZeroOutsideRegions;
     const std::size_t types = in.tests != nullptr ? in.tests->size() : 0;
     out.masks.resize(types);
     bool masksClear = out.masksZeroOutsideRegions;
@@ -233,6 +235,9 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     const float full = static_cast<float>((1 << in.bitDepth) - 1);
     const bool measure = in.visibility && !regional;
     const bool reduce = measure && w % 4 == 0 && h % 4 == 0;
+    if (measure && !reduce && !writeImage)
+        throw InvalidArgument("front end: the visibility of a " + std::to_string(w) + "x" + std::to_string(h) +
+                              " image (sides not multiples of 4) is measured on the image, which was not asked for");
     cv::Mat& small = out.reduced;
     if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));  // kept when it has that size
     std::int64_t saturated = 0;
@@ -277,7 +282,8 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
             const float* g = planes[1];
             const float* r = planes[2];
             const int x0 = area.x, x1 = area.x + area.width;
-            storeRow(b + x0, g + x0, r + x0, samplePlanes.data(), out.bgr.ptr<S>(y) + 3 * x0, area.width);
+            if (writeImage)
+                storeRow(b + x0, g + x0, r + x0, samplePlanes.data(), out.bgr.ptr<S>(y) + 3 * x0, area.width);
 
             for (std::size_t t = 0; t < types; ++t) {
                 const ColorTest& test = (*in.tests)[t];

@@ -42,6 +42,10 @@ struct FrontEndInput {
     /// The colour tests, compiled for this size and depth; null: no filter.
     const std::vector<ColorTest>* tests{nullptr};
     bool visibility{false};   ///< measure the visibility statistics
+    /// Write the BGR image (FrontEndResult::bgr); false: the masks and the
+    /// visibility only, the image left as it is (a pass over regions always
+    /// writes it).
+    bool writeImage{true};
     /// The search regions of a tracking frame (AnalysisFrame::regions): when
     /// not null and not empty, only their pixels are computed, each bit for
     /// bit what the whole image gives there (its demosaic reads the mosaic

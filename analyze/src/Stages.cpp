@@ -77,6 +77,13 @@ public:
 
     /// Only the bilinear demosaic is fused (the edge-aware one is OpenCV's own).
     bool canFuse() const { return method_ == DemosaicMethod::Bilinear; }
+    /// No stage after this one reads a whole-image frame's working image
+    /// except around the features: the fused pass may leave the image out
+    /// (unless the frame wants it whole), and imageAroundFeatures() fills it in.
+    void allowImagesAroundFeatures() { imagesAroundFeatures_ = true; }
+    /// A frame's working image of @p side around its features (boxes and
+    /// AnalysisFrame::kImageMarginPx), 0 elsewhere, when the pass left it out.
+    void imageAroundFeatures(AnalysisFrame& frame, Side side);
     void fuse(LightingStage* lighting, ColorFilterStage* filter, VisibilityStage* visibility) {
         lighting_ = lighting;
         filter_ = filter;
@@ -95,6 +102,7 @@ private:
     void searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in);
 
     bool swap_;
+    bool imagesAroundFeatures_{false};
     bool coarse_;  ///< whole-image frames coarse-to-fine: the half-size tests are built
     int coarseMargin_;
     DemosaicMethod method_;
@@ -211,7 +219,18 @@ public:
     std::string_view name() const override { return "locate_features"; }
     std::vector<std::string_view> needs() const override { return {"color_filter"}; }
     bool hasImageWork() const override { return true; }
+    /// Whether it reads the image (the intensity-weighted centroid).
+    bool readsImage() const { return weighted_; }
+    /// Once the features are found, @p frontEnd fills in the image around them
+    /// when its pass left the image out (DemosaicStage::allowImagesAroundFeatures()).
+    void fillImagesWith(DemosaicStage* frontEnd) { frontEnd_ = frontEnd; }
     void processImage(AnalysisFrame& frame, Side side) override {
+        locate(frame, side);
+        if (frontEnd_ != nullptr && frame.imagesAroundFeatures) frontEnd_->imageAroundFeatures(frame, side);
+    }
+
+private:
+    void locate(AnalysisFrame& frame, Side side) {
         ImageWork& work = frame.at(side);
         requirePerType(work.masks.size(), types_.size(), name(), "masks");
         work.features.assign(types_.size(), {});
@@ -241,9 +260,9 @@ public:
         }
     }
 
-private:
     std::vector<TargetType> types_;
     bool weighted_;
+    DemosaicStage* frontEnd_{nullptr};
 };
 
 /// Stereo matching per target type (thesis 3.4.1).
@@ -373,6 +392,17 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
         testsDepth_ = depth;
         testsBits_ = frame.layout.bitDepth;
     }
+    // A whole-image frame's working images only around its features, when
+    // nothing needs them whole (the visibility then comes from the pass's
+    // 4x4 sums, which need sides that are multiples of 4).
+    frame.imagesAroundFeatures = imagesAroundFeatures_ && !frame.wholeImagesWanted && filter_ != nullptr &&
+                                 !frame.tracking() && !frame.coarse &&
+                                 (visibility_ == nullptr || (size.width % 4 == 0 && size.height % 4 == 0));
+    if (frame.imagesAroundFeatures) {
+        if (lighting_ != nullptr && lighting_->corrector().enabled())
+            frame.mosaicLightingFactors = lighting_->corrector().mosaicFactors();
+        frame.samplesByteSwapped = swap_;
+    }
 }
 
 void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
@@ -406,7 +436,8 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     const auto buffer = [&](detail::BufferPool& pool, int type) {
         return regions.empty() ? pool.get(mosaic.size(), type) : pool.getZeroedOutside(mosaic.size(), type, regions);
     };
-    out.bgr = buffer(images_[i], CV_MAKETYPE(mosaic.depth(), 3));
+    in.writeImage = !frame.imagesAroundFeatures;
+    if (in.writeImage) out.bgr = buffer(images_[i], CV_MAKETYPE(mosaic.depth(), 3));
     out.bgrZeroOutsideRegions = out.masksZeroOutsideRegions = true;
     out.masks.resize(tests_.size());
     if (in.tests != nullptr)
@@ -420,6 +451,31 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
         work.visibility = *coarsePass_[i].visibility;
     reduced_[i] = std::move(out.reduced);
     visibilityScratch_[i] = std::move(out.visibilityScratch);
+}
+
+void DemosaicStage::imageAroundFeatures(AnalysisFrame& frame, Side side) {
+    const std::size_t i = side == Side::Left ? 0 : 1;
+    const cv::Mat& mosaic = frame.original.image(side);
+    ImageWork& work = frame.at(side);
+    std::vector<cv::Rect> boxes;
+    for (const std::vector<Feature>& features : work.features)
+        for (const Feature& f : features) boxes.push_back(f.box);
+    const std::vector<cv::Rect> regions =
+        detail::regionsAround(boxes, AnalysisFrame::kImageMarginPx, mosaic.size());
+    detail::FrontEndResult out;
+    out.bgr = images_[i].getZeroedOutside(mosaic.size(), CV_MAKETYPE(mosaic.depth(), 3), regions);
+    out.bgrZeroOutsideRegions = true;
+    if (!regions.empty()) {  // no regions: a pass would compute the whole image
+        detail::FrontEndInput in;
+        in.mosaic = mosaic;
+        in.pattern = frame.layout.bayerPattern;
+        in.bitDepth = frame.layout.bitDepth;
+        in.endianSwap = swap_;
+        in.factors = frame.mosaicLightingFactors.empty() ? nullptr : &frame.mosaicLightingFactors;
+        in.regions = &regions;
+        detail::runFrontEnd(in, out);
+    }
+    work.image = std::move(out.bgr);
 }
 
 void DemosaicStage::searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in) {
@@ -463,6 +519,26 @@ void detail::fuseFrontEnd(std::vector<std::unique_ptr<ProcessStereoImagePair>>& 
         if (filter != nullptr) filter->cover();
         if (visibility != nullptr) visibility->cover();
         demosaic->fuse(lighting, filter, visibility);
+        // The working image can wait for the features when every stage after
+        // the demosaic is a built-in one that reads it only around them: the
+        // fused ones, erode_restore, a locate_features that does not weigh by
+        // intensity (which then fills it in), match and triangulate.
+        LocateFeaturesStage* locate = nullptr;
+        bool aroundFeatures = filter != nullptr;
+        for (std::size_t k = i + 1; k < stages.size() && aroundFeatures; ++k) {
+            ProcessStereoImagePair* stage = stages[k].get();
+            if (stage == lighting || stage == filter || stage == visibility) continue;
+            if (auto* l = dynamic_cast<LocateFeaturesStage*>(stage); l != nullptr && locate == nullptr && !l->readsImage()) {
+                locate = l;
+                continue;
+            }
+            aroundFeatures = (locate != nullptr && dynamic_cast<TriangulateStage*>(stage) != nullptr) ||
+                             dynamic_cast<ErodeRestoreStage*>(stage) != nullptr || dynamic_cast<MatchStage*>(stage) != nullptr;
+        }
+        if (aroundFeatures && locate != nullptr) {
+            demosaic->allowImagesAroundFeatures();
+            locate->fillImagesWith(demosaic);
+        }
         return;  // the first demosaic only
     }
 }

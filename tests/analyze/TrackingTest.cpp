@@ -95,7 +95,8 @@ void expectTrackingEqualsWhole(const AnalysisFrame& tracked, const AnalysisFrame
         const std::string name = side == Side::Left ? "left" : "right";
         const std::vector<cv::Rect>& regions = tracked.regionsOf(side);
         ASSERT_FALSE(regions.empty()) << name;
-        expectRegionsOf(tracked.at(side).image, whole.at(side).image, regions, name + " image");
+        expectRegionsOf(tracked.at(side).image, AnalyzeStereoImagePair::workingImages(whole).image(side), regions,
+                        name + " image");
         ASSERT_EQ(tracked.at(side).masks.size(), whole.at(side).masks.size());
         for (std::size_t t = 0; t < whole.at(side).masks.size(); ++t)
             expectRegionsOf(tracked.at(side).masks[t], whole.at(side).masks[t], regions,
@@ -127,6 +128,56 @@ TEST(Tracking, ATrackingFrameGivesWhatTheWholeImageGives) {
         for (const cv::Rect& r : tracker.lastFrame().regionsOf(side)) area += r.area();
         EXPECT_LT(area, 0.2 * moved.size().area());
     }
+}
+
+// A whole-image frame's working images are computed only around the features
+// (their boxes + 8 px, 0 elsewhere) unless a client keeps them whole: the
+// masks, features and targets are the same either way, and workingImages()
+// gives the whole images bit for bit.
+TEST(Tracking, AWholeImageFrameKeepsItsImagesAroundTheFeaturesOnly) {
+    const Lab lab;
+    AnalyzeStereoImagePair around(lab.config), whole(lab.config);
+    whole.setKeepWholeImages(true);
+    const StereoImagePair pair = lab.pair({0, 0, 0}, 7);
+    around.analyze(pair, 0);
+    whole.analyze(pair, 0);
+    const AnalysisFrame& a = around.lastFrame();
+    const AnalysisFrame& w = whole.lastFrame();
+    EXPECT_TRUE(a.imagesAroundFeatures);
+    EXPECT_FALSE(w.imagesAroundFeatures);
+    ASSERT_EQ(wholeTargets(a.result), 2);
+    ASSERT_EQ(a.result.targets.size(), w.result.targets.size());
+    for (std::size_t i = 0; i < w.result.targets.size(); ++i)
+        EXPECT_TRUE(a.result.targets[i] == w.result.targets[i]) << describe(a.result.targets[i]);
+    EXPECT_EQ(a.result.visibility, w.result.visibility);
+    const StereoImagePair again = AnalyzeStereoImagePair::workingImages(a);
+    for (const Side side : {Side::Left, Side::Right}) {
+        const std::string name = side == Side::Left ? "left" : "right";
+        std::vector<cv::Rect> boxes;
+        for (const auto& features : a.at(side).features)
+            for (const Feature& f : features) boxes.push_back(f.box);
+        ASSERT_FALSE(boxes.empty());
+        const auto regions = detail::regionsAround(boxes, AnalysisFrame::kImageMarginPx, pair.size());
+        expectRegionsOf(a.at(side).image, w.at(side).image, regions, name + " image");
+        double area = 0.0;
+        for (const cv::Rect& r : regions) area += r.area();
+        EXPECT_LT(area, 0.2 * pair.size().area()) << name;
+        EXPECT_EQ(cv::norm(again.image(side), w.at(side).image, cv::NORM_INF), 0.0) << name;
+        for (std::size_t t = 0; t < w.at(side).masks.size(); ++t)
+            EXPECT_EQ(cv::norm(a.at(side).masks[t], w.at(side).masks[t], cv::NORM_INF), 0.0) << name << " mask " << t;
+    }
+    // The displays are drawn on the whole images.
+    const StereoImagePair markedAround = around.markedImages(), markedWhole = whole.markedImages();
+    EXPECT_EQ(cv::norm(markedAround.left(), markedWhole.left(), cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(around.filteredImages().right(), whole.filteredImages().right(), cv::NORM_INF), 0.0);
+
+    // An intensity-weighted centroid reads the image before the features are
+    // known: the image is then computed whole.
+    AvatarConfig weighted = lab.config;
+    weighted.analysis.centroid = CentroidMode::IntensityWeighted;
+    AnalyzeStereoImagePair weighing(weighted);
+    weighing.analyze(pair, 0);
+    EXPECT_FALSE(weighing.lastFrame().imagesAroundFeatures);
 }
 
 // The same through the stages one by one (the edge-aware demosaic is not fused).

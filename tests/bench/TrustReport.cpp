@@ -133,6 +133,7 @@ AvatarConfig baseConfig() {
 AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, const render::SensorFormat& sensor) {
     AvatarConfig config = baseConfig();
     AnalyzeStereoImagePair analysis(config);
+    analysis.setKeepWholeImages(true);  // the colours are read from the whole images
     std::map<std::string, std::vector<double>> rg, bg;
     const auto train = scenes(o.trainScenes, o.trainSeed, stereo, sensor);
     for (std::size_t k = 0; k < train.size(); ++k) {
@@ -521,6 +522,7 @@ int main(int argc, char** argv) {
         std::printf("| type   | R/G | B/G | pixels |\n|--------|-----|-----|--------|\n");
         const AvatarConfig config = trainFilters(o, scorpion.stereo, sensor);
         AnalyzeStereoImagePair analysis(config);
+        if (!o.dumpDir.empty()) analysis.setKeepWholeImages(true);  // crops of missed targets too
         Tally tally;
         const auto set = scenes(o.scenes, o.seed, scorpion.stereo, sensor);
         int truthTargets = 0;

@@ -48,7 +48,16 @@ public:
     /// Runs both images on the calling thread (for tests and profiling).
     void setParallel(bool parallel) { parallel_ = parallel; }
 
-    /// The last frame analysed (images, masks, features, matches, result).
+    /// Whether every whole-image frame's working images are computed whole
+    /// (default false: the fused front end computes them around the features
+    /// only, the rest 0, when no stage after it needs more; workingImages(),
+    /// filteredImages() and markedImages() compute them whole when asked).
+    /// Tools that read lastFrame()'s images directly set it.
+    void setKeepWholeImages(bool keep) { keepWholeImages_ = keep; }
+
+    /// The last frame analysed (images, masks, features, matches, result). Its
+    /// working images may hold only the pixels around the features
+    /// (AnalysisFrame::imagesAroundFeatures; workingImages() gives them whole).
     /// Every analyze() builds a new frame with new image buffers, so a copy of
     /// this frame (cv::Mat copies share pixels) stays valid and unchanged after
     /// later analyses: another thread may keep one.
@@ -64,6 +73,11 @@ public:
     static StereoImagePair filteredImages(const AnalysisFrame& frame);
     static StereoImagePair markedImages(const AnalysisFrame& frame);
 
+    /// The frame's working images (BGR after demosaic), whole: computed again
+    /// from the original when the frame kept them only around its features
+    /// (AnalysisFrame::imagesAroundFeatures), else the frame's own.
+    static StereoImagePair workingImages(const AnalysisFrame& frame);
+
     const std::vector<std::string>& stageNames() const { return names_; }
 
     /// The CPU time of each stage in the last analyze() (both threads'), in
@@ -78,6 +92,7 @@ private:
     std::vector<std::string> names_;
     std::unique_ptr<Worker> worker_;
     std::unique_ptr<detail::RegionTracker> tracker_;
+    bool keepWholeImages_{false};
     AnalysisFrame frame_;
     std::vector<StageTiming> cpuTimings_;
     bool parallel_{true};

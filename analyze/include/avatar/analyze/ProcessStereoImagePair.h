@@ -55,6 +55,26 @@ struct AnalysisFrame {
     /// superpixels first and sets that side's regions to what it found, so
     /// the stages after it work at full resolution only there.
     bool coarse{false};
+    /// Whether a whole-image frame's working images must be computed whole
+    /// (AnalyzeStereoImagePair::setKeepWholeImages()). When false, the fused
+    /// front end may compute them only around the features found and leave
+    /// the rest 0, as a tracking frame does (the masks, features and results
+    /// are the same): writing a whole 16-bit BGR image costs about a sixth of
+    /// the front end (docs/benchmarks.md).
+    bool wholeImagesWanted{true};
+    /// Set when the working images hold only the pixels around the features
+    /// (their boxes and kImageMarginPx more) and 0 elsewhere;
+    /// AnalyzeStereoImagePair::workingImages() computes them whole from the
+    /// original with what follows.
+    bool imagesAroundFeatures{false};
+    /// The lighting factor of every mosaic site the front end used (empty: no
+    /// correction) and whether it swapped the samples' bytes: what
+    /// AnalyzeStereoImagePair::workingImages() needs to compute the images again.
+    cv::Mat mosaicLightingFactors;
+    bool samplesByteSwapped{false};
+    /// The margin around each feature's box within which its working image is
+    /// computed when imagesAroundFeatures (the silhouettes read 4 px beyond).
+    static constexpr int kImageMarginPx = 8;
 
     ImageWork& at(Side side) { return images[side == Side::Left ? 0 : 1]; }
     const ImageWork& at(Side side) const { return images[side == Side::Left ? 0 : 1]; }
