@@ -178,23 +178,45 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         }
         anyHole = anyHole || rowHoles != 0;
     }
-    // Holes: a hole next to another target's or a fragment's pixels is the
-    // seam of mixed pixels between two touching objects, not a hole.
-    cv::Mat holeLabels, holeStats;
-    std::vector<bool> seam;
-    int holeCount = 0;
+    // Holes: 8-connected, numbered in raster order of their first pixel (as
+    // cv::connectedComponents numbers them; label 0 is no hole). A hole next
+    // to another target's or a fragment's pixels (one of its 3x3
+    // neighbours) is the seam of mixed pixels between two touching objects,
+    // not a hole. A flood per hole: they are few and small, and the OpenCV
+    // labelling and dilation woke the thread pool for each region.
+    cv::Mat holeLabels;
+    std::vector<int> holeAreas{0};
+    std::vector<bool> seam{false};
     if (anyHole) {
-        cv::Mat centroids, beside;
-        holeCount = cv::connectedComponentsWithStats(holes, holeLabels, holeStats, centroids, 8, CV_32S);
-        cv::dilate((lab == kOther) | (lab == kFragment), beside, cv::Mat::ones(3, 3, CV_8UC1));
-        seam.assign(static_cast<std::size_t>(holeCount), false);
-        for (int y = 0; y < roi.height; ++y) {
-            const int* c = holeLabels.ptr<int>(y);
-            const std::uint8_t* b = beside.ptr<std::uint8_t>(y);
-            for (int x = 0; x < roi.width; ++x)
-                if (c[x] > 0 && b[x]) seam[static_cast<std::size_t>(c[x])] = true;
-        }
+        holeLabels = cv::Mat::zeros(roi.size(), CV_32S);
+        std::vector<cv::Point> stack;
+        for (int y = 0; y < roi.height; ++y)
+            for (int x = 0; x < roi.width; ++x) {
+                if (holes.at<std::uint8_t>(y, x) == 0 || holeLabels.at<int>(y, x) != 0) continue;
+                const int label = static_cast<int>(holeAreas.size());
+                holeAreas.push_back(0);
+                seam.push_back(false);
+                holeLabels.at<int>(y, x) = label;
+                stack.assign(1, cv::Point(x, y));
+                while (!stack.empty()) {
+                    const cv::Point p = stack.back();
+                    stack.pop_back();
+                    ++holeAreas.back();
+                    for (int dy = -1; dy <= 1; ++dy)
+                        for (int dx = -1; dx <= 1; ++dx) {
+                            const int qx = p.x + dx, qy = p.y + dy;
+                            if (qx < 0 || qy < 0 || qx >= roi.width || qy >= roi.height) continue;
+                            const std::uint8_t l = lab.at<std::uint8_t>(qy, qx);
+                            if (l == kOther || l == kFragment) seam.back() = true;
+                            if (holes.at<std::uint8_t>(qy, qx) != 0 && holeLabels.at<int>(qy, qx) == 0) {
+                                holeLabels.at<int>(qy, qx) = label;
+                                stack.push_back({qx, qy});
+                            }
+                        }
+                }
+            }
     }
+    const int holeCount = static_cast<int>(holeAreas.size());
 
     // 16-bit samples are read where they are (as floats, the same values a
     // converted copy holds); any other depth through a float copy.
@@ -334,7 +356,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         const double pixelLog = std::sqrt(std::max(rel(2) + rel(1), rel(0) + rel(1)));
         for (int i = 1; i < holeCount; ++i) {
             if (seam[static_cast<std::size_t>(i)]) continue;
-            const int n = holeStats.at<int>(i, cv::CC_STAT_AREA);
+            const int n = holeAreas[static_cast<std::size_t>(i)];
             const cv::Vec2d r = ratios(sums[static_cast<std::size_t>(i)] * (1.0 / n));
             out.holes.push_back({n, std::max(std::abs(r[0] - own[0]), std::abs(r[1] - own[1])),
                                  pixelLog / std::sqrt(static_cast<double>(n))});
