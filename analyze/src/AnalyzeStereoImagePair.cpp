@@ -177,14 +177,8 @@ StereoImagePair AnalyzeStereoImagePair::workingImages(const AnalysisFrame& frame
             continue;
         }
         // The fused front end's pass again, for the image alone.
-        detail::FrontEndInput in;
-        in.mosaic = frame.original.image(side);
-        in.pattern = frame.layout.bayerPattern;
-        in.bitDepth = frame.layout.bitDepth;
-        in.endianSwap = frame.samplesByteSwapped;
-        in.factors = frame.mosaicLightingFactors.empty() ? nullptr : &frame.mosaicLightingFactors;
         detail::FrontEndResult whole;
-        detail::runFrontEnd(in, whole);
+        detail::runFrontEnd(detail::imageInput(frame, side), whole);
         out[side == Side::Left ? 0 : 1] = whole.bgr;
     }
     PairLayout layout = frame.layout;

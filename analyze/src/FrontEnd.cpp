@@ -127,12 +127,9 @@ AVATAR_KERNEL_CLONES std::int32_t countSaturated(const float* __restrict b, cons
     return count;
 }
 
-AVATAR_KERNEL_CLONES void accumulate(const float* __restrict in, float* __restrict sum, int n) {
-    for (int i = 0; i < n; ++i) sum[i] += in[i];
-}
-
 /// countSaturated() and the column sums of the three planes in one loop: the
-/// sums are started (@p first, a block's first row) or added to.
+/// sums are started (@p first, a block's first row) or added to. The whole
+/// pass's 4x4 reduction and the coarse pass's 2x2 one both gather them here.
 AVATAR_KERNEL_CLONES std::int32_t sumAndCount(const float* __restrict b, const float* __restrict g,
                                               const float* __restrict r, float* __restrict sb,
                                               float* __restrict sg, float* __restrict sr, int n, float full,
@@ -395,8 +392,7 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
         greenRow(site[greens[0].y] + greens[0].x, site[greens[1].y] + greens[1].x, planes[1], cw);
         if (keepImage) storeRow(planes[0], planes[1], planes[2], samplePlanes.data(), out.bgr.ptr<S>(y), cw);
         if (measure) {
-            saturated += countSaturated(planes[0], planes[1], planes[2], cw, full);
-            for (int c = 0; c < 3; ++c) accumulate(planes[c], sums[c], cw);
+            saturated += sumAndCount(planes[0], planes[1], planes[2], sums[0], sums[1], sums[2], cw, full, y % 2 == 0);
             if (y % 2 == 1) {  // 2x2 superpixels: the 4x4 blocks of the whole pass's reduction
                 for (int c = 0; c < 3; ++c) {
                     S* dst = out.reduced.ptr<S>(y / 2) + c;
@@ -405,7 +401,6 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
                         const auto v = static_cast<std::uint32_t>(static_cast<std::int32_t>(sum[2 * x] + sum[2 * x + 1]));
                         dst[3 * x] = static_cast<S>((v + 2u) >> 2);
                     }
-                    std::fill(sums[c], sums[c] + cw, 0.0f);
                 }
             }
         }
@@ -442,6 +437,16 @@ void runCoarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coa
 bool frontEndHandles(const cv::Mat& mosaic) {
     return mosaic.channels() == 1 && (mosaic.depth() == CV_8U || mosaic.depth() == CV_16U) && mosaic.cols >= 4 &&
            mosaic.rows >= 4;
+}
+
+FrontEndInput imageInput(const AnalysisFrame& frame, Side side) {
+    FrontEndInput in;
+    in.mosaic = frame.original.image(side);
+    in.pattern = frame.layout.bayerPattern;
+    in.bitDepth = frame.layout.bitDepth;
+    in.endianSwap = frame.samplesByteSwapped;
+    in.factors = frame.mosaicLightingFactors.empty() ? nullptr : &frame.mosaicLightingFactors;
+    return in;
 }
 
 void runFrontEnd(const FrontEndInput& in, FrontEndResult& out) {

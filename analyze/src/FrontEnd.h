@@ -99,6 +99,11 @@ bool frontEndHandles(const cv::Mat& mosaic);
 /// The pass. Thread-safe: the left and right image may run at once.
 void runFrontEnd(const FrontEndInput& in, FrontEndResult& out);
 
+/// The input that computes @p frame's working image of @p side again, the
+/// image alone (no tests, no visibility), from its original mosaic with the
+/// factors and byte order its front end used (AnalysisFrame::imagesAroundFeatures).
+FrontEndInput imageInput(const AnalysisFrame& frame, Side side);
+
 /// Lets the chain's first bilinear `demosaic` stage run the fused pass for the
 /// built-in `lighting` and `color_filter` stages right after it and the first
 /// `visibility` stage after those (when only built-in stages that leave the

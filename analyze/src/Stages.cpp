@@ -466,12 +466,7 @@ void DemosaicStage::imageAroundFeatures(AnalysisFrame& frame, Side side) {
     out.bgr = images_[i].getZeroedOutside(mosaic.size(), CV_MAKETYPE(mosaic.depth(), 3), regions);
     out.bgrZeroOutsideRegions = true;
     if (!regions.empty()) {  // no regions: a pass would compute the whole image
-        detail::FrontEndInput in;
-        in.mosaic = mosaic;
-        in.pattern = frame.layout.bayerPattern;
-        in.bitDepth = frame.layout.bitDepth;
-        in.endianSwap = swap_;
-        in.factors = frame.mosaicLightingFactors.empty() ? nullptr : &frame.mosaicLightingFactors;
+        detail::FrontEndInput in = detail::imageInput(frame, side);
         in.regions = &regions;
         detail::runFrontEnd(in, out);
     }
