@@ -206,6 +206,13 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     out.masks.resize(types);
     bool masksClear = out.masksZeroOutsideRegions;
     for (cv::Mat& mask : out.masks) masksClear = prepareImage(mask, mosaic.size(), CV_8UC1) && masksClear;
+    out.maskRows.resize(regional ? 0 : types);
+    for (std::size_t t = 0; t < out.maskRows.size(); ++t) {
+        MaskRows& rows = out.maskRows[t];
+        rows.data = out.masks[t].data;
+        rows.begin.assign(static_cast<std::size_t>(h), 0);
+        rows.end.assign(static_cast<std::size_t>(h), 0);
+    }
 
     // Rows: three of the (corrected) mosaic (a ring), the demosaiced planes, the
     // visibility's column sums; the per-column role of each row parity.
@@ -299,6 +306,13 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
                 std::memset(mask, 0, static_cast<std::size_t>(win.x));
                 test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
                 std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
+                int& first = out.maskRows[t].begin[static_cast<std::size_t>(y)];
+                int& last = out.maskRows[t].end[static_cast<std::size_t>(y)];
+                nonZeroSpan(mask + win.x, win.width, first, last);
+                if (last > first) {
+                    first += win.x;
+                    last += win.x;
+                }
             }
 
             if (measure) {

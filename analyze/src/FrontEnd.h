@@ -16,6 +16,7 @@
 
 #include "ColorFilterKernel.h"
 #include "ImageReduce.h"
+#include "MaskRows.h"
 
 #include <avatar/analyze/ProcessStereoImagePair.h>
 #include <avatar/analyze/Visibility.h>
@@ -61,6 +62,9 @@ struct FrontEndResult {
     cv::Mat bgr;                    ///< the demosaiced (and corrected) image
     std::vector<cv::Mat> masks;     ///< one per test, CV_8UC1 0/255
     std::optional<VisibilityMeasures> visibility;
+    /// Per mask, where its on pixels lie (a whole-image pass only; a pass over
+    /// regions leaves this empty).
+    std::vector<MaskRows> maskRows;
     /// Scratch for the visibility's 4x4 reduction, kept by a caller that runs
     /// the pass again on images of the same size (no allocation per frame).
     cv::Mat reduced;

@@ -22,6 +22,8 @@
 
 #include <avatar/analyze/ImageFeatureLocator.h>
 
+#include "MaskRows.h"
+
 #include <avatar/common/Error.h>
 #include <avatar/common/Logging.h>
 
@@ -29,6 +31,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -109,14 +112,29 @@ int findRoot(std::vector<int>& parent, int i) {
 /// 8-connected components of @p mask (any non-zero byte is "on"). The root of
 /// each component is its earliest run, so numbering the roots in run order
 /// numbers the components in raster order of their first pixel.
-void labelRuns(const cv::Mat& mask, RunComponents& out) {
+/// @p rows, when not null: where the on pixels of the mask that @p mask is
+/// the part at @p origin of lie; only those spans are read.
+void labelRuns(const cv::Mat& mask, RunComponents& out, const detail::MaskRows* rows = nullptr,
+               cv::Point origin = {}) {
     std::vector<Run>& runs = out.runs;
     runs.clear();
     std::vector<int> parent;
     std::size_t prevBegin = 0, prevEnd = 0;  // runs of the row above
     for (int y = 0; y < mask.rows; ++y) {
         const std::size_t begin = runs.size();
-        rowRuns(mask.ptr<std::uint8_t>(y), mask.cols, y, runs);
+        if (rows == nullptr) {
+            rowRuns(mask.ptr<std::uint8_t>(y), mask.cols, y, runs);
+        } else {
+            const auto r = static_cast<std::size_t>(origin.y + y);
+            const int a = std::max(rows->begin[r] - origin.x, 0), b = std::min(rows->end[r] - origin.x, mask.cols);
+            if (a < b) {
+                rowRuns(mask.ptr<std::uint8_t>(y) + a, b - a, y, runs);
+                for (std::size_t i = begin; i < runs.size(); ++i) {
+                    runs[i].x0 += a;
+                    runs[i].x1 += a;
+                }
+            }
+        }
         const std::size_t end = runs.size();
         for (std::size_t i = begin; i < end; ++i) parent.push_back(static_cast<int>(i));
         if (prevEnd > prevBegin && runs[prevBegin].y == y - 1) {
@@ -320,23 +338,15 @@ cv::Mat erodeRestore(const cv::Mat& mask, int kernelSize) {
     return out;
 }
 
-void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out) {
-    requireMask(mask, "erodeRestore");
-    if (kernelSize < 1 || kernelSize % 2 == 0) {
-        throw InvalidArgument("erodeRestore: the erode kernel size must be odd and positive, got " +
-                              std::to_string(kernelSize));
-    }
-    if (out.data == mask.data && !mask.empty())
-        throw InvalidArgument("erodeRestore: the output must not share the mask's buffer");
-    if (out.type() != CV_8UC1 || out.size() != mask.size()) out.create(mask.size(), CV_8UC1);
-    if (mask.empty()) return;
+namespace {
 
-    // Reconstruction: label the mask, keep every component that has a pixel
-    // surviving the erosion (decided run by run, without an eroded image),
-    // then write exactly the kept components' runs.
-    RunComponents c;
-    labelRuns(mask, c);
-    std::vector<std::uint8_t> keep(static_cast<std::size_t>(c.count), 0);
+/// Labels @p mask (its on pixels where @p rows says, when not null) into
+/// @p c and marks in @p keep (255) the components with a pixel that survives
+/// the erosion by a square of @p kernelSize. Returns how many.
+int survivingComponents(const cv::Mat& mask, int kernelSize, const detail::MaskRows* rows, RunComponents& c,
+                        std::vector<std::uint8_t>& keep) {
+    labelRuns(mask, c, rows);
+    keep.assign(static_cast<std::size_t>(c.count), 0);
     std::vector<std::uint8_t> column(static_cast<std::size_t>(mask.cols));
     const int radius = kernelSize / 2;
     int survivors = 0;
@@ -348,22 +358,93 @@ void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out) {
             ++survivors;
         }
     }
+    return survivors;
+}
 
+void requireKernel(int kernelSize) {
+    if (kernelSize < 1 || kernelSize % 2 == 0) {
+        throw InvalidArgument("erodeRestore: the erode kernel size must be odd and positive, got " +
+                              std::to_string(kernelSize));
+    }
+}
+
+void logKept(int kernelSize, int survivors, int count) {
+    log4cpp::Category& log = logger();
+    if (log.isDebugEnabled()) {
+        log.debugStream() << "erodeRestore: kernel " << kernelSize << ", " << survivors << " of " << count
+                          << " components kept";
+    }
+}
+
+}  // namespace
+
+void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out) {
+    requireMask(mask, "erodeRestore");
+    requireKernel(kernelSize);
+    if (out.data == mask.data && !mask.empty())
+        throw InvalidArgument("erodeRestore: the output must not share the mask's buffer");
+    if (out.type() != CV_8UC1 || out.size() != mask.size()) out.create(mask.size(), CV_8UC1);
+    if (mask.empty()) return;
+
+    // Reconstruction: label the mask, keep every component that has a pixel
+    // surviving the erosion (decided run by run, without an eroded image),
+    // then write exactly the kept components' runs.
+    RunComponents c;
+    std::vector<std::uint8_t> keep;
+    const int survivors = survivingComponents(mask, kernelSize, nullptr, c, keep);
     out.setTo(0);
     for (std::size_t i = 0; i < c.runs.size(); ++i) {
         const Run& r = c.runs[i];
         if (keep[static_cast<std::size_t>(c.component[i])] != 0)
             std::memset(out.ptr<std::uint8_t>(r.y) + r.x0, 255, static_cast<std::size_t>(r.x1 - r.x0));
     }
-    log4cpp::Category& log = logger();
-    if (log.isDebugEnabled()) {
-        log.debugStream() << "erodeRestore: kernel " << kernelSize << ", " << survivors << " of "
-                          << c.count << " components kept";
+    logKept(kernelSize, survivors, c.count);
+}
+
+void detail::nonZeroSpan(const std::uint8_t* row, int n, int& begin, int& end) {
+    begin = end = 0;
+    int x = 0;
+    while (x + 8 <= n && load8(row + x) == 0) x += 8;
+    while (x < n && row[x] == 0) ++x;
+    if (x >= n) return;
+    begin = x;
+    int e = n;
+    while (e - 8 >= x && load8(row + e - 8) == 0) e -= 8;
+    while (row[e - 1] == 0) --e;
+    end = e;
+}
+
+int detail::erodeRestoreInPlace(cv::Mat& mask, int kernelSize, const MaskRows* rows, MaskRows& kept) {
+    requireMask(mask, "erodeRestore");
+    requireKernel(kernelSize);
+    if (rows != nullptr && !rows->describes(mask)) rows = nullptr;
+    RunComponents c;
+    std::vector<std::uint8_t> keep;
+    const int survivors = survivingComponents(mask, kernelSize, rows, c, keep);
+    kept.data = mask.data;
+    kept.begin.assign(static_cast<std::size_t>(mask.rows), 0);
+    kept.end.assign(static_cast<std::size_t>(mask.rows), 0);
+    for (std::size_t i = 0; i < c.runs.size(); ++i) {
+        const Run& r = c.runs[i];
+        if (keep[static_cast<std::size_t>(c.component[i])] == 0) {
+            std::memset(mask.ptr<std::uint8_t>(r.y) + r.x0, 0, static_cast<std::size_t>(r.x1 - r.x0));
+            continue;
+        }
+        const auto y = static_cast<std::size_t>(r.y);
+        if (kept.begin[y] == kept.end[y]) kept.begin[y] = r.x0;  // runs of a row come left to right
+        kept.end[y] = r.x1;
     }
+    logKept(kernelSize, survivors, c.count);
+    return survivors;
 }
 
 std::vector<Feature> locateFeatures(const cv::Mat& mask, const cv::Mat& intensity,
                                     const TargetType& type, cv::Rect window) {
+    return detail::locateFeatures(mask, intensity, type, window, nullptr);
+}
+
+std::vector<Feature> detail::locateFeatures(const cv::Mat& mask, const cv::Mat& intensity, const TargetType& type,
+                                            cv::Rect window, const MaskRows* rows) {
     requireMask(mask, "locateFeatures");
     const cv::Rect image(0, 0, mask.cols, mask.rows);
     if (window.empty() || (window & image) != window) {
@@ -386,7 +467,7 @@ std::vector<Feature> locateFeatures(const cv::Mat& mask, const cv::Mat& intensit
 
     const cv::Mat roi = mask(window);
     RunComponents c;
-    labelRuns(roi, c);
+    labelRuns(roi, c, rows != nullptr && rows->describes(mask) ? rows : nullptr, window.tl());
     std::vector<Accumulator> acc(static_cast<std::size_t>(c.count));
     accumulate(c, intensity.empty() ? cv::Mat() : intensity(window), acc);
 

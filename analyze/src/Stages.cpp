@@ -3,6 +3,7 @@
 
 #include "BufferPool.h"
 #include "FrontEnd.h"
+#include "MaskRows.h"
 #include "RegionTracker.h"
 #include "TargetAssembly.h"
 
@@ -84,6 +85,12 @@ public:
     /// A frame's working image of @p side around its features (boxes and
     /// AnalysisFrame::kImageMarginPx), 0 elsewhere, when the pass left it out.
     void imageAroundFeatures(AnalysisFrame& frame, Side side);
+    /// Where the on pixels of the mask of type @p t that this frame's pass
+    /// wrote for @p side lie, when @p mask is that mask; else null.
+    const detail::MaskRows* maskRows(Side side, std::size_t t, const cv::Mat& mask) const {
+        const auto& rows = maskRows_[side == Side::Left ? 0 : 1];
+        return t < rows.size() && rows[t].describes(mask) ? &rows[t] : nullptr;
+    }
     void fuse(LightingStage* lighting, ColorFilterStage* filter, VisibilityStage* visibility) {
         lighting_ = lighting;
         filter_ = filter;
@@ -121,6 +128,7 @@ private:
     std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
     std::array<detail::VisibilityScratch, 2> visibilityScratch_;
     std::array<detail::CoarseResult, 2> coarsePass_;
+    std::array<std::vector<detail::MaskRows>, 2> maskRows_;  ///< of the last pass, per side and type
 };
 
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
@@ -180,13 +188,30 @@ public:
     std::string_view name() const override { return "erode_restore"; }
     std::vector<std::string_view> needs() const override { return {"color_filter"}; }
     bool hasImageWork() const override { return true; }
+    /// The masks come straight from @p frontEnd's pass (fuseFrontEnd()): a
+    /// mask it wrote in this frame is restored in place, reading only where
+    /// its on pixels lie.
+    void takeMasksFrom(const DemosaicStage* frontEnd) { frontEnd_ = frontEnd; }
+    /// Where the on pixels of @p side's mask of type @p t lie, when @p mask
+    /// is the one this frame's processImage() restored in place; else null.
+    const detail::MaskRows* maskRows(Side side, std::size_t t, const cv::Mat& mask) const {
+        const auto& rows = rows_[side == Side::Left ? 0 : 1];
+        return t < rows.size() && rows[t].describes(mask) ? &rows[t] : nullptr;
+    }
     void processImage(AnalysisFrame& frame, Side side) override {
         auto& masks = frame.at(side).masks;
         detail::BufferPool& pool = pools_[side == Side::Left ? 0 : 1];
+        std::vector<detail::MaskRows>& rows = rows_[side == Side::Left ? 0 : 1];
+        rows.assign(masks.size(), {});
         const std::vector<cv::Rect>& regions = frame.regionsOf(side);
         for (std::size_t t = 0; t < types_.size() && t < masks.size(); ++t) {
             if (!types_[t].erodeRestore) continue;
             const int kernel = types_[t].erodeKernelSize;
+            const detail::MaskRows* written = frontEnd_ != nullptr ? frontEnd_->maskRows(side, t, masks[t]) : nullptr;
+            if (regions.empty() && written != nullptr) {  // the pass's own buffer, seen by no one else yet
+                detail::erodeRestoreInPlace(masks[t], kernel, written, rows[t]);
+                continue;
+            }
             if (regions.empty()) {
                 cv::Mat restored = pool.get(masks[t].size(), CV_8UC1);
                 erodeRestore(masks[t], kernel, restored);
@@ -207,6 +232,8 @@ public:
 private:
     std::vector<TargetType> types_;
     std::array<detail::BufferPool, 2> pools_{detail::BufferPool(16), detail::BufferPool(16)};  ///< per side
+    const DemosaicStage* frontEnd_{nullptr};
+    std::array<std::vector<detail::MaskRows>, 2> rows_;  ///< per side and type, of the last frame
 };
 
 /// 8-connected features with the geometric filter (thesis 3.3.3).
@@ -224,6 +251,13 @@ public:
     /// Once the features are found, @p frontEnd fills in the image around them
     /// when its pass left the image out (DemosaicStage::allowImagesAroundFeatures()).
     void fillImagesWith(DemosaicStage* frontEnd) { frontEnd_ = frontEnd; }
+    /// The masks come straight from @p frontEnd's pass, through @p erode
+    /// (may be null) when it comes between (fuseFrontEnd()): only where their
+    /// on pixels lie is read.
+    void takeMasksFrom(const DemosaicStage* frontEnd, const ErodeRestoreStage* erode) {
+        maskWriter_ = frontEnd;
+        eroder_ = erode;
+    }
     void processImage(AnalysisFrame& frame, Side side) override {
         locate(frame, side);
         if (frontEnd_ != nullptr && frame.imagesAroundFeatures) frontEnd_->imageAroundFeatures(frame, side);
@@ -239,7 +273,9 @@ private:
         for (std::size_t t = 0; t < types_.size(); ++t) {
             const cv::Rect window = searchWindow(types_[t], work.masks[t].size());
             if (regions.empty()) {
-                work.features[t] = locateFeatures(work.masks[t], intensity, types_[t], window);
+                const detail::MaskRows* rows = eroder_ != nullptr ? eroder_->maskRows(side, t, work.masks[t]) : nullptr;
+                if (rows == nullptr && maskWriter_ != nullptr) rows = maskWriter_->maskRows(side, t, work.masks[t]);
+                work.features[t] = detail::locateFeatures(work.masks[t], intensity, types_[t], window, rows);
                 continue;
             }
             // Each region within the type's window is a search window of its
@@ -263,6 +299,8 @@ private:
     std::vector<TargetType> types_;
     bool weighted_;
     DemosaicStage* frontEnd_{nullptr};
+    const DemosaicStage* maskWriter_{nullptr};
+    const ErodeRestoreStage* eroder_{nullptr};
 };
 
 /// Stereo matching per target type (thesis 3.4.1).
@@ -406,6 +444,7 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
 }
 
 void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
+    maskRows_[side == Side::Left ? 0 : 1].clear();
     if (!fusedFor(frame)) {
         // What the fused pass does not take goes through the stages one by one.
         demosaicOnly(frame, side);
@@ -451,6 +490,7 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
         work.visibility = *coarsePass_[i].visibility;
     reduced_[i] = std::move(out.reduced);
     visibilityScratch_[i] = std::move(out.visibilityScratch);
+    if (in.tests != nullptr) maskRows_[i] = std::move(out.maskRows);
 }
 
 void DemosaicStage::imageAroundFeatures(AnalysisFrame& frame, Side side) {
@@ -533,6 +573,26 @@ void detail::fuseFrontEnd(std::vector<std::unique_ptr<ProcessStereoImagePair>>& 
         if (aroundFeatures && locate != nullptr) {
             demosaic->allowImagesAroundFeatures();
             locate->fillImagesWith(demosaic);
+        }
+        // The masks go from the pass to an erode_restore and a locate_features
+        // right after it (only fused stages between, which leave them alone)
+        // with where their on pixels lie.
+        if (filter != nullptr) {
+            const auto next = [&](std::size_t k) {
+                while (k < stages.size() && (stages[k].get() == lighting || stages[k].get() == filter ||
+                                             stages[k].get() == visibility))
+                    ++k;
+                return k;
+            };
+            std::size_t k = next(i + 1);
+            ErodeRestoreStage* erode = nullptr;
+            if (is(k, static_cast<ErodeRestoreStage*>(nullptr))) {
+                erode = static_cast<ErodeRestoreStage*>(stages[k].get());
+                erode->takeMasksFrom(demosaic);
+                k = next(k + 1);
+            }
+            if (is(k, static_cast<LocateFeaturesStage*>(nullptr)))
+                static_cast<LocateFeaturesStage*>(stages[k].get())->takeMasksFrom(demosaic, erode);
         }
         return;  // the first demosaic only
     }

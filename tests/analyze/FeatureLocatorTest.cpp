@@ -4,6 +4,8 @@
 #include <avatar/analyze/ImageFeatureLocator.h>
 #include <avatar/common/Error.h>
 
+#include "MaskRows.h"  // internal: the labelling that reads only where a mask is on
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -724,6 +726,85 @@ TEST(ErodeRestore, MatchesIterativeReconstructionOnRandomMasks) {
         SCOPED_TRACE("trial " + std::to_string(trial) + ", kernel " + std::to_string(kernel));
         EXPECT_EQ(differingPixels(erodeRestore(mask, kernel), referenceErodeRestore(mask, kernel)),
                   0);
+    }
+}
+
+/// Each row's span of on pixels, as the front end hands it on.
+detail::MaskRows rowsOf(const cv::Mat& mask) {
+    detail::MaskRows rows;
+    rows.data = mask.data;
+    rows.begin.resize(static_cast<std::size_t>(mask.rows));
+    rows.end.resize(static_cast<std::size_t>(mask.rows));
+    for (int y = 0; y < mask.rows; ++y)
+        detail::nonZeroSpan(mask.ptr<std::uint8_t>(y), mask.cols, rows.begin[static_cast<std::size_t>(y)],
+                            rows.end[static_cast<std::size_t>(y)]);
+    return rows;
+}
+
+TEST(MaskRows, NonZeroSpanIsTheFirstAndLastOnPixel) {
+    // Rows wider than the eight bytes skipped at a time, on pixels at either end, in the middle, none.
+    const cv::Mat mask = maskFrom({"#..................#", "........#...........", "....................",
+                                   "..........#.#####...", "###################."});
+    const detail::MaskRows rows = rowsOf(mask);
+    EXPECT_EQ(rows.begin, (std::vector<int>{0, 8, 0, 10, 0}));
+    EXPECT_EQ(rows.end, (std::vector<int>{20, 9, 0, 17, 19}));
+    EXPECT_TRUE(rows.describes(mask));
+    EXPECT_FALSE(rows.describes(mask.clone()));  // another buffer
+}
+
+TEST(ErodeRestore, InPlaceFromRowSpansMatchesTheReconstruction) {
+    // The front end's path: the mask restored where it lies, reading only the
+    // spans it was given; the spans it hands on cover exactly the kept pixels.
+    cv::RNG rng(31);
+    for (int trial = 0; trial < 40; ++trial) {
+        const cv::Size size(rng.uniform(1, 200), rng.uniform(1, 60));
+        cv::Mat noise(size, CV_32F);
+        rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+        cv::Mat mask = noise < 0.55 + 0.05 * (trial % 5);
+        cv::blur(mask, mask, {3, 3});
+        mask = mask > 127;
+        mask(cv::Rect(0, 0, size.width, size.height / 3)).setTo(0);  // empty rows too
+        const int kernel = 3 + 2 * (trial % 3);
+        SCOPED_TRACE("trial " + std::to_string(trial) + ", kernel " + std::to_string(kernel));
+        const cv::Mat expected = referenceErodeRestore(mask, kernel);
+        const detail::MaskRows given = rowsOf(mask);
+        detail::MaskRows kept;
+        cv::Mat inPlace = mask;  // the same buffer
+        detail::erodeRestoreInPlace(inPlace, kernel, &given, kept);
+        EXPECT_EQ(inPlace.data, mask.data);
+        EXPECT_EQ(differingPixels(inPlace, expected), 0);
+        const detail::MaskRows tight = rowsOf(expected);
+        EXPECT_EQ(kept.begin, tight.begin);
+        EXPECT_EQ(kept.end, tight.end);
+        EXPECT_TRUE(kept.describes(inPlace));
+    }
+}
+
+TEST(LocateFeatures, ReadingOnlyTheRowSpansFindsTheSameFeatures) {
+    cv::RNG rng(5);
+    for (int trial = 0; trial < 20; ++trial) {
+        const cv::Size size(rng.uniform(40, 300), rng.uniform(10, 80));
+        cv::Mat noise(size, CV_32F);
+        rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+        cv::Mat mask = noise < 0.3;
+        cv::blur(mask, mask, {5, 5});
+        mask = mask > 100;
+        const cv::Rect window = trial % 2 == 0 ? whole(mask) : cv::Rect(7, 3, size.width - 20, size.height - 6);
+        SCOPED_TRACE("trial " + std::to_string(trial));
+        const auto expected = referenceLocate(mask, window);
+        const detail::MaskRows rows = rowsOf(mask);
+        const auto actual = detail::locateFeatures(mask, cv::Mat(), keepAll(), window, &rows);
+        ASSERT_EQ(actual.size(), expected.size());
+        for (std::size_t i = 0; i < actual.size(); ++i) {
+            EXPECT_EQ(actual[i].area, expected[i].area);
+            EXPECT_EQ(actual[i].box, expected[i].box);
+            EXPECT_EQ(actual[i].boundary, expected[i].boundary);
+        }
+        // Spans of another buffer are not this mask's: ignored, the whole mask read.
+        detail::MaskRows stale = rows;
+        std::fill(stale.end.begin(), stale.end.end(), 0);
+        stale.data = nullptr;
+        EXPECT_EQ(detail::locateFeatures(mask, cv::Mat(), keepAll(), window, &stale).size(), expected.size());
     }
 }
 

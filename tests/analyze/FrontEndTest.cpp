@@ -177,6 +177,16 @@ void checkCase(const Case& c, std::uint64_t seed) {
     ASSERT_EQ(out.masks.size(), masks.size());
     for (std::size_t t = 0; t < masks.size(); ++t) {
         expectIdentical(out.masks[t], masks[t], "mask of " + types[t].name);
+        // Where each row's on pixels lie, as handed to erode_restore and locate_features: exactly.
+        ASSERT_EQ(out.maskRows.size(), masks.size());
+        EXPECT_TRUE(out.maskRows[t].describes(out.masks[t]));
+        for (int y = 0; y < masks[t].rows; ++y) {
+            int first = 0, end = 0;
+            detail::nonZeroSpan(masks[t].ptr<std::uint8_t>(y), masks[t].cols, first, end);
+            const auto row = static_cast<std::size_t>(y);
+            ASSERT_EQ(out.maskRows[t].begin[row], first) << types[t].name << " row " << y;
+            ASSERT_EQ(out.maskRows[t].end[row], end) << types[t].name << " row " << y;
+        }
         // The filters must have had something to decide.
         if (t == 0 && c.size.area() >= 1000) {
             EXPECT_GT(cv::countNonZero(masks[t]), 0) << types[t].name;

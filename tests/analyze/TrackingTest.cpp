@@ -180,6 +180,42 @@ TEST(Tracking, AWholeImageFrameKeepsItsImagesAroundTheFeaturesOnly) {
     EXPECT_FALSE(weighing.lastFrame().imagesAroundFeatures);
 }
 
+// The fused chain hands its masks on with where their on pixels lie, and
+// erode_restore restores them in place (MaskRows.h). A chain where another
+// stage comes between (here a pass-through one) reads them whole, into
+// buffers of its own: the masks, features and targets are the same.
+TEST(Tracking, MasksHandedOnWithTheirRowsGiveWhatReadingThemWholeGives) {
+    struct PassThrough : ProcessStereoImagePair {
+        std::string_view name() const override { return "pass_through"; }
+    };
+    const Lab lab;
+    StageRegistry registry = StageRegistry::builtin();
+    registry.add("pass_through", [](const StageContext&) { return std::make_unique<PassThrough>(); });
+    AvatarConfig apart = lab.config;
+    std::vector<std::string>& stages = apart.analysis.stages;
+    stages.insert(std::find(stages.begin(), stages.end(), "erode_restore"), "pass_through");
+    AnalyzeStereoImagePair handed(lab.config), whole(apart, {}, registry);
+    for (std::uint64_t seed : {11, 12}) {
+        const StereoImagePair pair = lab.pair({3.0 * static_cast<double>(seed - 11), 0, 0}, seed);
+        const VisionTargets a = handed.analyze(pair, seed);
+        const VisionTargets b = whole.analyze(pair, seed);
+        ASSERT_EQ(wholeTargets(a), 2);
+        ASSERT_EQ(a.targets.size(), b.targets.size());
+        for (std::size_t i = 0; i < a.targets.size(); ++i)
+            EXPECT_TRUE(a.targets[i] == b.targets[i]) << describe(a.targets[i]) << "\n" << describe(b.targets[i]);
+        for (const Side side : {Side::Left, Side::Right}) {
+            const ImageWork& x = handed.lastFrame().at(side);
+            const ImageWork& y = whole.lastFrame().at(side);
+            ASSERT_EQ(x.masks.size(), y.masks.size());
+            for (std::size_t t = 0; t < x.masks.size(); ++t) {
+                EXPECT_EQ(cv::norm(x.masks[t], y.masks[t], cv::NORM_INF), 0.0) << "mask " << t;
+                EXPECT_GT(cv::countNonZero(x.masks[t]), 100) << "mask " << t;
+                EXPECT_EQ(x.features[t].size(), y.features[t].size()) << "type " << t;
+            }
+        }
+    }
+}
+
 // The same through the stages one by one (the edge-aware demosaic is not fused).
 TEST(Tracking, ATrackingFrameOfTheUnfusedChainGivesWhatTheWholeImageGives) {
     Lab lab;
