@@ -53,6 +53,9 @@ struct FrontEndInput {
     /// around it); the rest of the image and masks is 0 and no visibility is
     /// measured. Rectangles inside the image, disjoint.
     const std::vector<cv::Rect>* regions{nullptr};
+    /// The portable loops even where a CPU runs the AVX-512 ones (for the
+    /// tests that hold the two to the same result).
+    bool portableKernels{false};
 };
 
 /// The outputs. A buffer already of the right size and type (continuous) is

@@ -22,6 +22,7 @@
 
 #include <avatar/analyze/ImageFeatureLocator.h>
 
+#include "KernelClones.h"
 #include "MaskRows.h"
 
 #include <avatar/common/Error.h>
@@ -401,8 +402,22 @@ void erodeRestore(const cv::Mat& mask, int kernelSize, cv::Mat& out) {
     logKept(kernelSize, survivors, c.count);
 }
 
+namespace {
+
+/// Whether any of @p n bytes is non-zero: an OR over the row that GCC
+/// vectorises (the front end asks it of every mask row it writes, most of
+/// them empty).
+AVATAR_KERNEL_CLONES bool anyNonZero(const std::uint8_t* __restrict row, int n) {
+    std::uint8_t any = 0;
+    for (int i = 0; i < n; ++i) any = static_cast<std::uint8_t>(any | row[i]);
+    return any != 0;
+}
+
+}  // namespace
+
 void detail::nonZeroSpan(const std::uint8_t* row, int n, int& begin, int& end) {
     begin = end = 0;
+    if (!anyNonZero(row, n)) return;
     int x = 0;
     while (x + 8 <= n && load8(row + x) == 0) x += 8;
     while (x < n && row[x] == 0) ++x;

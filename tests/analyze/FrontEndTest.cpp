@@ -205,6 +205,14 @@ void checkCase(const Case& c, std::uint64_t seed) {
     detail::runFrontEnd(in, out);
     EXPECT_EQ(out.bgr.data, image);
     expectIdentical(out.bgr, bgr, "image, second run");
+
+    // The portable loops give the same where the CPU runs the AVX-512 ones.
+    in.portableKernels = true;
+    detail::FrontEndResult portable;
+    detail::runFrontEnd(in, portable);
+    expectIdentical(portable.bgr, bgr, "image, portable loops");
+    for (std::size_t t = 0; t < masks.size(); ++t)
+        expectIdentical(portable.masks[t], masks[t], "mask of " + types[t].name + ", portable loops");
 }
 
 TEST(FrontEnd, EqualsTheStagesOneByOneBitForBit) {
