@@ -56,6 +56,96 @@ AVATAR_KERNEL_CLONES void channelSums(const std::uint16_t* __restrict p, const s
     big = big || over != 0;
 }
 
+// The per-pixel passes over a region's rows below, as kernels on restrict
+// pointers with the width in a register: written inline, the byte stores
+// could alias everything (the width too), and GCC kept them scalar.
+
+/// A row of the labels from the own mask: 255 where it is on, background elsewhere.
+AVATAR_KERNEL_CLONES void markRow(const std::uint8_t* __restrict mask, std::uint8_t* __restrict labels, int n) {
+    for (int x = 0; x < n; ++x) labels[x] = mask[x] != 0 ? 255 : kBackground;
+}
+
+/// Another mask's pixels (or, @p ownType, the own mask's that the seed's
+/// flood did not reach) into a row of the labels: another target's inside a
+/// feature's box (@p inBoxes) or where already marked so, a fragment elsewhere.
+AVATAR_KERNEL_CLONES void markOthersRow(const std::uint8_t* __restrict mask, const std::uint8_t* __restrict inBoxes,
+                                        std::uint8_t* __restrict labels, int n, bool ownType) {
+    for (int x = 0; x < n; ++x) {
+        const std::uint8_t v = labels[x];
+        const bool pixel = ownType ? v == 255 : (mask[x] != 0 && v != kFeature);
+        const std::uint8_t marked = (inBoxes[x] != 0 || v == kOther) ? kOther : kFragment;
+        labels[x] = pixel ? marked : v;
+    }
+}
+
+/// After the flood of the outside: background left is holes, which join the
+/// feature; a compound's union apart from its seed's part (255) becomes a
+/// fragment. Writes the feature's and the holes' 0/255 rows; returns
+/// whether the row has a hole.
+AVATAR_KERNEL_CLONES bool settleRow(std::uint8_t* __restrict labels, std::uint8_t* __restrict feature,
+                                    std::uint8_t* __restrict holes, int n) {
+    std::uint8_t any = 0;
+    for (int x = 0; x < n; ++x) {
+        const std::uint8_t v = labels[x];
+        const std::uint8_t hole = v == kBackground ? 255 : 0;
+        const std::uint8_t joined = hole != 0 ? kFeature : (v == 255 ? kFragment : v);
+        labels[x] = joined;
+        holes[x] = hole;
+        feature[x] = joined == kFeature ? 255 : 0;
+        any = static_cast<std::uint8_t>(any | hole);
+    }
+    return any != 0;
+}
+
+/// The roles of a row's pixels as 0/1 weights: the target's away from its
+/// edge (@p inner), the background's away from it (outside @p near, in the
+/// outside), and the target's pixels two apart (0 in the last two). Their
+/// counts into @p counts.
+AVATAR_KERNEL_CLONES void rolesRow(const std::uint8_t* __restrict inner, const std::uint8_t* __restrict near,
+                                   const std::uint8_t* __restrict labels, std::uint8_t* __restrict isTarget,
+                                   std::uint8_t* __restrict isBackground, std::uint8_t* __restrict isPair, int n,
+                                   int* __restrict counts) {
+    int tc = 0, bc = 0, dc = 0;
+    for (int x = 0; x < n; ++x) {
+        const std::uint8_t t = inner[x] != 0 ? 1 : 0;
+        const std::uint8_t b = (inner[x] == 0 && near[x] == 0 && labels[x] == kOutside) ? 1 : 0;
+        isTarget[x] = t;
+        isBackground[x] = b;
+        tc += t;
+        bc += b;
+    }
+    for (int x = 0; x + 2 < n; ++x) {
+        const std::uint8_t d = (inner[x] != 0 && inner[x + 2] != 0) ? 1 : 0;
+        isPair[x] = d;
+        dc += d;
+    }
+    for (int x = std::max(n - 2, 0); x < n; ++x) isPair[x] = 0;
+    counts[0] = tc;
+    counts[1] = bc;
+    counts[2] = dc;
+}
+
+/// A row of the feature's labels: its pixels counted, their x summed, and
+/// @p edge set (1) at those with a 4-neighbour that is not the feature's,
+/// the ones whose edges are looked at. The labels have a frame of one pixel
+/// (never the feature's) all round, so x - 1, x + 1 and the rows above and
+/// below exist.
+AVATAR_KERNEL_CLONES int featureRow(const std::uint8_t* __restrict above, const std::uint8_t* __restrict row,
+                                    const std::uint8_t* __restrict below, std::uint8_t* __restrict edge, int n,
+                                    std::int64_t& sumX) {
+    int count = 0, sum = 0;  // sum < n^2 / 2, n a region's width
+    for (int x = 0; x < n; ++x) {
+        const int own = row[x] == kFeature;
+        const int inside = (row[x - 1] == kFeature) & (row[x + 1] == kFeature) & (above[x] == kFeature) &
+                           (below[x] == kFeature);
+        edge[x] = static_cast<std::uint8_t>(own & (1 - inside));
+        count += own;
+        sum += own * x;
+    }
+    sumX += sum;
+    return count;
+}
+
 /// cv::erode (@p erode) or cv::dilate of a 0/255 mask with a 5x5 square and
 /// OpenCV's default border (outside pixels never erode nor dilate), as two
 /// separable passes of plain loops: the region is small and cv::erode's
@@ -124,11 +214,8 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     // target, every frame).
     cv::Mat frame(roi.height + 2, roi.width + 2, CV_8UC1, cv::Scalar(kBackground));
     cv::Mat lab = frame(cv::Rect(1, 1, roi.width, roi.height));
-    for (int y = 0; y < roi.height; ++y) {
-        const std::uint8_t* m = ownMask.ptr<std::uint8_t>(roi.y + y) + roi.x;
-        std::uint8_t* l = lab.ptr<std::uint8_t>(y);
-        for (int x = 0; x < roi.width; ++x) l[x] = m[x] != 0 ? 255 : kBackground;
-    }
+    for (int y = 0; y < roi.height; ++y)
+        markRow(ownMask.ptr<std::uint8_t>(roi.y + y) + roi.x, lab.ptr<std::uint8_t>(y), roi.width);
     const cv::Point seed = feature.boundary[kTopLeft] - roi.tl();
     if (!cv::Rect(0, 0, roi.width, roi.height).contains(seed) || lab.at<std::uint8_t>(seed) != 255) return out;
     cv::floodFill(lab, seed, cv::Scalar(kFeature), nullptr, cv::Scalar(), cv::Scalar(), 8);
@@ -145,39 +232,18 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 if (!r.empty()) inBoxes(r - roi.tl()).setTo(cv::Scalar(255));
             }
         const cv::Mat& mask = masks[m];
-        for (int y = 0; y < roi.height; ++y) {
-            const std::uint8_t* mk = mask.ptr<std::uint8_t>(roi.y + y) + roi.x;
-            const std::uint8_t* ib = inBoxes.ptr<std::uint8_t>(y);
-            std::uint8_t* l = lab.ptr<std::uint8_t>(y);
-            for (int x = 0; x < roi.width; ++x) {
-                const std::uint8_t v = l[x];
-                const bool pixel = ownType ? v == 255 : (mk[x] != 0 && v != kFeature);
-                const std::uint8_t marked = (ib[x] != 0 || v == kOther) ? kOther : kFragment;
-                l[x] = pixel ? marked : v;
-            }
-        }
+        for (int y = 0; y < roi.height; ++y)
+            markOthersRow(mask.ptr<std::uint8_t>(roi.y + y) + roi.x, inBoxes.ptr<std::uint8_t>(y),
+                          lab.ptr<std::uint8_t>(y), roi.width, ownType);
     }
     // The background connected to the frame; what is left of it is holes.
     cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
     cv::Mat isFeature(roi.size(), CV_8UC1), holes(roi.size(), CV_8UC1);
     bool anyHole = false;
-    for (int y = 0; y < roi.height; ++y) {
-        std::uint8_t* l = lab.ptr<std::uint8_t>(y);
-        std::uint8_t* f = isFeature.ptr<std::uint8_t>(y);
-        std::uint8_t* hl = holes.ptr<std::uint8_t>(y);
-        std::uint8_t rowHoles = 0;
-        for (int x = 0; x < roi.width; ++x) {
-            const std::uint8_t v = l[x];
-            const std::uint8_t hole = v == kBackground ? 255 : 0;  // holes join the feature
-            // 255: a compound's union apart from its seed's part
-            const std::uint8_t joined = hole != 0 ? kFeature : (v == 255 ? kFragment : v);
-            l[x] = joined;
-            hl[x] = hole;
-            f[x] = joined == kFeature ? 255 : 0;
-            rowHoles |= hole;
-        }
-        anyHole = anyHole || rowHoles != 0;
-    }
+    for (int y = 0; y < roi.height; ++y)
+        anyHole = settleRow(lab.ptr<std::uint8_t>(y), isFeature.ptr<std::uint8_t>(y), holes.ptr<std::uint8_t>(y),
+                            roi.width) ||
+                  anyHole;
     // Holes: 8-connected, numbered in raster order of their first pixel (as
     // cv::connectedComponents numbers them; label 0 is no hole). A hole next
     // to another target's or a fragment's pixels (one of its 3x3
@@ -257,21 +323,10 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         std::uint8_t* isPair = isBackground + n;
         std::int64_t sums[3][3] = {};  // [channel][target, background, pairs]
         for (int y = 0; y < roi.height; ++y) {
-            const std::uint8_t* in = inner.ptr<std::uint8_t>(y);
-            const std::uint8_t* nr = near.ptr<std::uint8_t>(y);
-            const std::uint8_t* lb = lab.ptr<std::uint8_t>(y);
-            int tc = 0, bc = 0, dc = 0;
-            for (int x = 0; x < roi.width; ++x) {
-                const std::uint8_t t = in[x] != 0 ? 1 : 0;
-                const std::uint8_t b = (in[x] == 0 && nr[x] == 0 && lb[x] == kOutside) ? 1 : 0;
-                const std::uint8_t d = (x + 2 < roi.width && t != 0 && in[x + 2] != 0) ? 1 : 0;
-                isTarget[x] = t;
-                isBackground[x] = b;
-                isPair[x] = d;
-                tc += t;
-                bc += b;
-                dc += d;
-            }
+            int counts[3];
+            rolesRow(inner.ptr<std::uint8_t>(y), near.ptr<std::uint8_t>(y), lab.ptr<std::uint8_t>(y), isTarget,
+                     isBackground, isPair, roi.width, counts);
+            const int tc = counts[0], bc = counts[1], dc = counts[2];
             targetCount += tc;
             backgroundCount += bc;
             diffCount += dc;
@@ -387,19 +442,15 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     std::vector<FreeEdge> freeEdges;
     const int wx0 = window.x - roi.x, wy0 = window.y - roi.y;
     const int wx1 = wx0 + window.width, wy1 = wy0 + window.height;
+    std::vector<std::uint8_t> edges(static_cast<std::size_t>(roi.width));
     for (int y = 0; y < roi.height; ++y) {
-        const std::uint8_t* row = lab.ptr<std::uint8_t>(y);
-        const std::uint8_t* above = y > 0 ? lab.ptr<std::uint8_t>(y - 1) : nullptr;
-        const std::uint8_t* below = y + 1 < roi.height ? lab.ptr<std::uint8_t>(y + 1) : nullptr;
+        // Most of the feature's pixels are inside: only its edge pixels are looked at.
+        const int count = featureRow(frame.ptr<std::uint8_t>(y) + 1, lab.ptr<std::uint8_t>(y),
+                                     frame.ptr<std::uint8_t>(y + 2) + 1, edges.data(), roi.width, pixelSumX);
+        pixelCount += count;
+        pixelSumY += static_cast<std::int64_t>(count) * y;
         for (int x = 0; x < roi.width; ++x) {
-            if (row[x] != kFeature) continue;
-            ++pixelCount;
-            pixelSumX += x;
-            pixelSumY += y;
-            // Most pixels are inside: no edge to look at.
-            if (x > 0 && above != nullptr && x + 1 < roi.width && below != nullptr && row[x - 1] == kFeature &&
-                row[x + 1] == kFeature && above[x] == kFeature && below[x] == kFeature)
-                continue;
+            if (edges[static_cast<std::size_t>(x)] == 0) continue;
             for (const Direction& d : kDirections) {
                 const int qx = x + d.dx, qy = y + d.dy;
                 const cv::Point2d mid(roi.x + x + 0.5 * d.dx, roi.y + y + 0.5 * d.dy);
