@@ -273,25 +273,38 @@ struct ZmmRatioLimits {
           bgOpen(lim.bgOpen ? typename Z::M(~0u) : 0) {}
 };
 
-/// ratioRow's verdict for the lanes of @p valid (the others are 0). The
-/// ordered non-signalling predicates (_OQ) are C++'s <=, >=, > and ==, false
-/// for NaN. The minima first, then the maxima, then the sum, each step only
-/// when some lane is still in: a target's colour is a small part of an
-/// image, so most steps of 16 background pixels end after three or six
-/// compares (a branch that is almost always taken the same way). @p Open:
-/// some maximum is open (RatioLimits); without one the zero-denominator
-/// terms are 0 and left out.
+/// The two parts of ratioRow's verdict. The ordered non-signalling
+/// predicates (_OQ) are C++'s <=, >=, > and ==, false for NaN.
+///
+/// ratioMinima(): the lanes of @p valid whose three ratios reach their
+/// minima. A target's colour is a small part of an image, so for most pixels
+/// this already says no (ratioRowAvx512 skips the rest for them).
+template <typename T>
+AVATAR_AVX512F inline typename Zmm<T>::M ratioMinima(typename Zmm<T>::M valid, typename Zmm<T>::V b,
+                                                     typename Zmm<T>::V g, typename Zmm<T>::V r,
+                                                     const ZmmRatioLimits<T>& l) {
+    using Z = Zmm<T>;
+    typename Z::M k = Z::template cmp<_CMP_LE_OQ>(valid, Z::mul(l.rgLo, g), r);
+    k = Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.rbLo, b), r);
+    return Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.bgLo, g), b);
+}
+
+/// ratioMaxima(): the lanes of @p k (ratioMinima()'s) whose ratios stay
+/// within their maxima and whose sum is positive and within the band: two
+/// chains of compares ANDed at the end rather than one, so that their
+/// compares need not wait for each other. @p Open: some maximum is open
+/// (RatioLimits); without one the zero-denominator terms are 0 and left out.
 template <typename T, bool Open>
-AVATAR_AVX512F inline typename Zmm<T>::M ratioMask(typename Zmm<T>::M valid, typename Zmm<T>::V b,
-                                                   typename Zmm<T>::V g, typename Zmm<T>::V r,
-                                                   const ZmmRatioLimits<T>& l) {
+AVATAR_AVX512F inline typename Zmm<T>::M ratioMaxima(typename Zmm<T>::M k, typename Zmm<T>::V b,
+                                                     typename Zmm<T>::V g, typename Zmm<T>::V r,
+                                                     const ZmmRatioLimits<T>& l) {
     using Z = Zmm<T>;
     using M = typename Z::M;
-    M k = Z::template cmp<_CMP_LE_OQ>(valid, Z::mul(l.rgLo, g), r);
-    k = Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.rbLo, b), r);
-    k = Z::template cmp<_CMP_LE_OQ>(k, Z::mul(l.bgLo, g), b);
-    if (k == 0) return k;
     const typename Z::V zero = Z::set1(T(0));
+    const typename Z::V sum = Z::add(Z::add(b, g), r);
+    M kSum = Z::template cmp<_CMP_GT_OQ>(k, sum, zero);
+    kSum = Z::template cmp<_CMP_GE_OQ>(kSum, sum, l.sumLo);
+    kSum = Z::template cmp<_CMP_LE_OQ>(kSum, sum, l.sumHi);
     if constexpr (Open) {
         // A max passes num <= hi * den, or when it is open a zero denominator (+infinity).
         const M gZero = Z::template cmp<_CMP_EQ_OQ>(k, g, zero);
@@ -299,18 +312,17 @@ AVATAR_AVX512F inline typename Zmm<T>::M ratioMask(typename Zmm<T>::M valid, typ
         const M rgMax = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rgHi, g)) | (gZero & l.rgOpen);
         const M rbMax = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rbHi, b)) | (bZero & l.rbOpen);
         const M bgMax = Z::template cmp<_CMP_LE_OQ>(k, b, Z::mul(l.bgHi, g)) | (gZero & l.bgOpen);
-        k = k & rgMax & rbMax & bgMax;
+        return kSum & rgMax & rbMax & bgMax;
     } else {
-        k = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rgHi, g));
-        k = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rbHi, b));
-        k = Z::template cmp<_CMP_LE_OQ>(k, b, Z::mul(l.bgHi, g));
+        M kMax = Z::template cmp<_CMP_LE_OQ>(k, r, Z::mul(l.rgHi, g));
+        kMax = Z::template cmp<_CMP_LE_OQ>(kMax, r, Z::mul(l.rbHi, b));
+        kMax = Z::template cmp<_CMP_LE_OQ>(kMax, b, Z::mul(l.bgHi, g));
+        return kSum & kMax;
     }
-    if (k == 0) return k;
-    const typename Z::V sum = Z::add(Z::add(b, g), r);
-    k = Z::template cmp<_CMP_GT_OQ>(k, sum, zero);
-    k = Z::template cmp<_CMP_GE_OQ>(k, sum, l.sumLo);
-    return Z::template cmp<_CMP_LE_OQ>(k, sum, l.sumHi);
 }
+
+/// Which part of the verdict ratioMask16() gives.
+enum class RatioPart { Minima, Maxima };
 
 // The all-lanes masks below (maskz_ forms of unmasked operations) only keep
 // GCC 12 from warning about the undefined source register of the unmasked
@@ -321,13 +333,16 @@ AVATAR_AVX512F inline __m128i verdictBytes(__mmask16 k) {
     return _mm512_maskz_cvtepi32_epi8(0xFFFF, _mm512_maskz_mov_epi32(k, _mm512_set1_epi32(255)));
 }
 
-/// ratioMask() of the 16 pixels at @p i, of which the lanes in @p valid exist
-/// (the others are not read).
-template <bool Open>
-AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, const float* pr, int i, __mmask16 valid,
+/// One part of the verdict of the 16 pixels at @p i: ratioMinima() of the
+/// lanes in @p k, or ratioMaxima() of those of them that reached the minima
+/// (@p k, ratioMinima()'s result). Only the lanes of @p k are read.
+template <RatioPart Part, bool Open>
+AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, const float* pr, int i, __mmask16 k,
                                             const ZmmRatioLimits<float>& l) {
-    return ratioMask<float, Open>(valid, _mm512_maskz_loadu_ps(valid, pb + i), _mm512_maskz_loadu_ps(valid, pg + i),
-                            _mm512_maskz_loadu_ps(valid, pr + i), l);
+    const __m512 b = _mm512_maskz_loadu_ps(k, pb + i), g = _mm512_maskz_loadu_ps(k, pg + i),
+                 r = _mm512_maskz_loadu_ps(k, pr + i);
+    if constexpr (Part == RatioPart::Minima) return ratioMinima<float>(k, b, g, r, l);
+    else return ratioMaxima<float, Open>(k, b, g, r, l);
 }
 
 /// Lanes 0-7 (@p Half 0) or 8-15 (1) of 16 floats widened to double (exact).
@@ -339,16 +354,18 @@ AVATAR_AVX512F inline __m512d widenHalf(__m512 v) {
 
 /// The same in double (as ratioRow<double>): the 16 samples widened, as two
 /// halves of 8.
-template <bool Open>
-AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, const float* pr, int i, __mmask16 valid,
+template <RatioPart Part, bool Open>
+AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, const float* pr, int i, __mmask16 k,
                                             const ZmmRatioLimits<double>& l) {
-    const __m512 b = _mm512_maskz_loadu_ps(valid, pb + i);
-    const __m512 g = _mm512_maskz_loadu_ps(valid, pg + i);
-    const __m512 r = _mm512_maskz_loadu_ps(valid, pr + i);
-    const __mmask8 kLow = ratioMask<double, Open>(static_cast<__mmask8>(valid), widenHalf<0>(b), widenHalf<0>(g),
-                                                  widenHalf<0>(r), l);
-    const __mmask8 kHigh = ratioMask<double, Open>(static_cast<__mmask8>(valid >> 8), widenHalf<1>(b),
-                                                   widenHalf<1>(g), widenHalf<1>(r), l);
+    const __m512 b = _mm512_maskz_loadu_ps(k, pb + i);
+    const __m512 g = _mm512_maskz_loadu_ps(k, pg + i);
+    const __m512 r = _mm512_maskz_loadu_ps(k, pr + i);
+    const auto part = [&](__mmask8 lanes, const __m512d& bh, const __m512d& gh, const __m512d& rh) {
+        if constexpr (Part == RatioPart::Minima) return ratioMinima<double>(lanes, bh, gh, rh, l);
+        else return ratioMaxima<double, Open>(lanes, bh, gh, rh, l);
+    };
+    const __mmask8 kLow = part(static_cast<__mmask8>(k), widenHalf<0>(b), widenHalf<0>(g), widenHalf<0>(r));
+    const __mmask8 kHigh = part(static_cast<__mmask8>(k >> 8), widenHalf<1>(b), widenHalf<1>(g), widenHalf<1>(r));
     return static_cast<__mmask16>(kLow | (kHigh << 8));
 }
 
@@ -358,13 +375,28 @@ template <typename T, bool Open>
 AVATAR_AVX512F void ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
                                    const ZmmRatioLimits<T>& l) {
     int i = 0;
-    for (; i + 16 <= n; i += 16) {
-        const __mmask16 k = ratioMask16<Open>(pb, pg, pr, i, 0xFFFF, l);
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), verdictBytes(k));
+    // 64 pixels a step: their minima first, and the rest only when some lane
+    // is left. Most steps of an image are background that fails a minimum,
+    // and one branch per 64 pixels is one the CPU predicts, also in a
+    // tracking frame's regions around the targets (a branch per 16 pixels
+    // missed there at every edge of a target).
+    for (; i + 64 <= n; i += 64) {
+        __mmask16 k[4];
+        for (int j = 0; j < 4; ++j)
+            k[j] = ratioMask16<RatioPart::Minima, Open>(pb, pg, pr, i + 16 * j, 0xFFFF, l);
+        if ((k[0] | k[1] | k[2] | k[3]) == 0) {
+            _mm512_storeu_si512(out + i, _mm512_setzero_si512());
+            continue;
+        }
+        for (int j = 0; j < 4; ++j) {
+            const __mmask16 v = ratioMask16<RatioPart::Maxima, Open>(pb, pg, pr, i + 16 * j, k[j], l);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i + 16 * j), verdictBytes(v));
+        }
     }
-    if (i < n) {
-        const auto valid = static_cast<__mmask16>((1u << (n - i)) - 1u);
-        const __mmask16 k = ratioMask16<Open>(pb, pg, pr, i, valid, l);
+    for (; i < n; i += 16) {
+        const auto valid = static_cast<__mmask16>(n - i >= 16 ? 0xFFFFu : (1u << (n - i)) - 1u);
+        const __mmask16 k = ratioMask16<RatioPart::Maxima, Open>(
+            pb, pg, pr, i, ratioMask16<RatioPart::Minima, Open>(pb, pg, pr, i, valid, l), l);
         _mm512_mask_cvtepi32_storeu_epi8(out + i, valid, _mm512_maskz_mov_epi32(k, _mm512_set1_epi32(255)));
     }
 }
