@@ -80,11 +80,13 @@ public:
     bool canFuse() const { return method_ == DemosaicMethod::Bilinear; }
     /// No stage after this one reads a whole-image frame's working image
     /// except around the features: the fused pass may leave the image out
-    /// (unless the frame wants it whole), and imageAroundFeatures() fills it in.
+    /// (unless the frame wants it whole), and featuresFound() fills it in.
     void allowImagesAroundFeatures() { imagesAroundFeatures_ = true; }
-    /// A frame's working image of @p side around its features (boxes and
-    /// AnalysisFrame::kImageMarginPx), 0 elsewhere, when the pass left it out.
-    void imageAroundFeatures(AnalysisFrame& frame, Side side);
+    /// Once @p side's features are found: the share of the image around them
+    /// (their boxes and AnalysisFrame::kImageMarginPx) noted for the next
+    /// frame's choice, and when the pass left the image out
+    /// (AnalysisFrame::imagesAroundFeatures), the image there computed, 0 elsewhere.
+    void featuresFound(AnalysisFrame& frame, Side side);
     /// Where the on pixels of the mask of type @p t that this frame's pass
     /// wrote for @p side lie, when @p mask is that mask; else null.
     const detail::MaskRows* maskRows(Side side, std::size_t t, const cv::Mat& mask) const {
@@ -128,6 +130,9 @@ private:
     std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
     std::array<detail::VisibilityScratch, 2> visibilityScratch_;
     std::array<detail::CoarseResult, 2> coarsePass_;
+    /// The share of each side's image that its last frame's image around the
+    /// features covered (featuresFound()).
+    std::array<double, 2> aroundShare_{0.0, 0.0};
     std::array<std::vector<detail::MaskRows>, 2> maskRows_;  ///< of the last pass, per side and type
 };
 
@@ -260,7 +265,7 @@ public:
     }
     void processImage(AnalysisFrame& frame, Side side) override {
         locate(frame, side);
-        if (frontEnd_ != nullptr && frame.imagesAroundFeatures) frontEnd_->imageAroundFeatures(frame, side);
+        if (frontEnd_ != nullptr) frontEnd_->featuresFound(frame, side);
     }
 
 private:
@@ -433,7 +438,13 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
     // A whole-image frame's working images only around its features, when
     // nothing needs them whole (the visibility then comes from the pass's
     // 4x4 sums, which need sides that are multiples of 4).
-    frame.imagesAroundFeatures = imagesAroundFeatures_ && !frame.wholeImagesWanted && filter_ != nullptr &&
+    // Computing the image around the features is a second pass over those
+    // parts (loading, correcting and demosaicing the mosaic again), against a
+    // sixth of the whole pass for writing the whole image in it: worth it
+    // while they cover less than a third of the image. The last frame's share
+    // says what to expect (the result is the same either way).
+    frame.imagesAroundFeatures = imagesAroundFeatures_ && std::max(aroundShare_[0], aroundShare_[1]) < 1.0 / 3.0 &&
+                                 !frame.wholeImagesWanted && filter_ != nullptr &&
                                  !frame.tracking() && !frame.coarse &&
                                  (visibility_ == nullptr || (size.width % 4 == 0 && size.height % 4 == 0));
     if (frame.imagesAroundFeatures) {
@@ -493,7 +504,7 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     if (in.tests != nullptr) maskRows_[i] = std::move(out.maskRows);
 }
 
-void DemosaicStage::imageAroundFeatures(AnalysisFrame& frame, Side side) {
+void DemosaicStage::featuresFound(AnalysisFrame& frame, Side side) {
     const std::size_t i = side == Side::Left ? 0 : 1;
     const cv::Mat& mosaic = frame.original.image(side);
     ImageWork& work = frame.at(side);
@@ -502,6 +513,10 @@ void DemosaicStage::imageAroundFeatures(AnalysisFrame& frame, Side side) {
         for (const Feature& f : features) boxes.push_back(f.box);
     const std::vector<cv::Rect> regions =
         detail::regionsAround(boxes, AnalysisFrame::kImageMarginPx, mosaic.size());
+    double covered = 0.0;
+    for (const cv::Rect& r : regions) covered += r.area();
+    aroundShare_[i] = covered / static_cast<double>(mosaic.total());
+    if (!frame.imagesAroundFeatures) return;
     detail::FrontEndResult out;
     out.bgr = images_[i].getZeroedOutside(mosaic.size(), CV_MAKETYPE(mosaic.depth(), 3), regions);
     out.bgrZeroOutsideRegions = true;

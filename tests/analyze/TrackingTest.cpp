@@ -180,6 +180,39 @@ TEST(Tracking, AWholeImageFrameKeepsItsImagesAroundTheFeaturesOnly) {
     EXPECT_FALSE(weighing.lastFrame().imagesAroundFeatures);
 }
 
+// Around features that cover more than a third of the image, computing the
+// image again costs more than writing it whole in the pass: the frame after
+// one with such features has its images whole, and the one after a frame with
+// small features has them around its features again. The results are the same.
+TEST(Tracking, AfterLargeFeaturesTheImagesAreWrittenWhole) {
+    const Lab lab;
+    Lab near = lab;
+    near.scene.targets[0].radiusMm = 230.0;  // the duck and its margin: over a third of each image
+    const StereoImagePair large = near.pair({0, 0, 0}, 21), small = lab.pair({0, 0, 0}, 22);
+    const auto share = [](const AnalysisFrame& f) {
+        std::vector<cv::Rect> boxes;
+        for (const auto& features : f.at(Side::Left).features)
+            for (const Feature& x : features) boxes.push_back(x.box);
+        double area = 0.0;
+        for (const cv::Rect& r : detail::regionsAround(boxes, AnalysisFrame::kImageMarginPx, f.original.size()))
+            area += r.area();
+        return area / static_cast<double>(f.original.size().area());
+    };
+    AnalyzeStereoImagePair analyzer(lab.config);
+    std::string pattern;
+    for (const StereoImagePair* pair : {&large, &large, &small, &small}) {
+        const VisionTargets got = analyzer.analyze(*pair, pattern.size());
+        pattern += analyzer.lastFrame().imagesAroundFeatures ? 'A' : 'W';
+        AnalyzeStereoImagePair fresh(lab.config);
+        const VisionTargets expected = fresh.analyze(*pair, pattern.size() - 1);
+        ASSERT_EQ(got.targets.size(), expected.targets.size()) << pattern;
+        for (std::size_t i = 0; i < got.targets.size(); ++i) EXPECT_TRUE(got.targets[i] == expected.targets[i]) << pattern;
+        if (pair == &large) EXPECT_GT(share(analyzer.lastFrame()), 1.0 / 3.0);
+        else EXPECT_LT(share(analyzer.lastFrame()), 1.0 / 3.0);
+    }
+    EXPECT_EQ(pattern, "AWWA");
+}
+
 // The fused chain hands its masks on with where their on pixels lie, and
 // erode_restore restores them in place (MaskRows.h). A chain where another
 // stage comes between (here a pass-through one) reads them whole, into
