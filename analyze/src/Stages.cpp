@@ -93,6 +93,12 @@ public:
         const auto& rows = maskRows_[side == Side::Left ? 0 : 1];
         return t < rows.size() && rows[t].describes(mask) ? &rows[t] : nullptr;
     }
+    /// Whether @p mask is the mask of type @p t that this frame's pass wrote
+    /// for @p side (a buffer of its own that no one else has seen).
+    bool wroteMask(Side side, std::size_t t, const cv::Mat& mask) const {
+        const auto& written = written_[side == Side::Left ? 0 : 1];
+        return t < written.size() && mask.data != nullptr && written[t] == mask.data;
+    }
     void fuse(LightingStage* lighting, ColorFilterStage* filter, VisibilityStage* visibility) {
         lighting_ = lighting;
         filter_ = filter;
@@ -134,6 +140,7 @@ private:
     /// features covered (featuresFound()).
     std::array<double, 2> aroundShare_{0.0, 0.0};
     std::array<std::vector<detail::MaskRows>, 2> maskRows_;  ///< of the last pass, per side and type
+    std::array<std::vector<const std::uint8_t*>, 2> written_;  ///< the masks of the last pass, likewise
 };
 
 /// Frame-average gains and strobe-falloff template (thesis 3.2).
@@ -212,9 +219,19 @@ public:
         for (std::size_t t = 0; t < types_.size() && t < masks.size(); ++t) {
             if (!types_[t].erodeRestore) continue;
             const int kernel = types_[t].erodeKernelSize;
-            const detail::MaskRows* written = frontEnd_ != nullptr ? frontEnd_->maskRows(side, t, masks[t]) : nullptr;
-            if (regions.empty() && written != nullptr) {  // the pass's own buffer, seen by no one else yet
-                detail::erodeRestoreInPlace(masks[t], kernel, written, rows[t]);
+            if (frontEnd_ != nullptr && frontEnd_->wroteMask(side, t, masks[t])) {
+                // The pass's own buffer, seen by no one else yet: restored in
+                // place, where its on pixels lie (a whole-image frame), or
+                // each region as its own image as below.
+                if (regions.empty()) {
+                    detail::erodeRestoreInPlace(masks[t], kernel, frontEnd_->maskRows(side, t, masks[t]), rows[t]);
+                } else {
+                    detail::MaskRows kept;
+                    for (const cv::Rect& region : regions) {
+                        cv::Mat part = masks[t](region);
+                        detail::erodeRestoreInPlace(part, kernel, nullptr, kept);
+                    }
+                }
                 continue;
             }
             if (regions.empty()) {
@@ -456,6 +473,7 @@ void DemosaicStage::prepare(AnalysisFrame& frame) {
 
 void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     maskRows_[side == Side::Left ? 0 : 1].clear();
+    written_[side == Side::Left ? 0 : 1].clear();
     if (!fusedFor(frame)) {
         // What the fused pass does not take goes through the stages one by one.
         demosaicOnly(frame, side);
@@ -501,7 +519,10 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
         work.visibility = *coarsePass_[i].visibility;
     reduced_[i] = std::move(out.reduced);
     visibilityScratch_[i] = std::move(out.visibilityScratch);
-    if (in.tests != nullptr) maskRows_[i] = std::move(out.maskRows);
+    if (in.tests != nullptr) {
+        maskRows_[i] = std::move(out.maskRows);
+        for (const cv::Mat& mask : work.masks) written_[i].push_back(mask.data);
+    }
 }
 
 void DemosaicStage::featuresFound(AnalysisFrame& frame, Side side) {
