@@ -213,6 +213,10 @@ void checkCase(const Case& c, std::uint64_t seed) {
     expectIdentical(portable.bgr, bgr, "image, portable loops");
     for (std::size_t t = 0; t < masks.size(); ++t)
         expectIdentical(portable.masks[t], masks[t], "mask of " + types[t].name + ", portable loops");
+    ASSERT_TRUE(portable.visibility.has_value());
+    EXPECT_EQ(std::memcmp(&portable.visibility->contrast, &visibility.contrast, sizeof(double)), 0);
+    EXPECT_EQ(std::memcmp(&portable.visibility->haze, &visibility.haze, sizeof(double)), 0);
+    EXPECT_EQ(std::memcmp(&portable.visibility->saturatedFraction, &visibility.saturatedFraction, sizeof(double)), 0);
 }
 
 TEST(FrontEnd, EqualsTheStagesOneByOneBitForBit) {
