@@ -254,6 +254,14 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         if (l < 0 || r < 0) {
             if (whole) {
                 ++tally.wholeSpurious;
+                // Two or more targets of its colour around it (touching ones
+                // that the filter saw as one feature, placed between them)?
+                int near = 0;
+                for (const auto& t : scene.targets) {
+                    if (t.type != v.type) continue;
+                    const auto d = imageDisc(stereo.left, cv::Point3d(t.centreMm), t.radiusMm);
+                    near += d && cv::norm(d->centrePx - *v.centroidLeftPx) < 2.0 * d->radiusPx ? 1 : 0;
+                }
                 // A box made nearly of a target's colour (a look-alike)?
                 bool lookAlike = false;
                 for (const auto& o : scene.occluders) {
@@ -261,7 +269,7 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
                     const auto d = imageDisc(stereo.left, cv::Point3d(o.centreMm), cv::norm(o.halfSizeMm));
                     lookAlike = lookAlike || (d && cv::norm(d->centrePx - *v.centroidLeftPx) < d->radiusPx);
                 }
-                fail(lookAlike ? "look-alike box" : "spurious", v.type);
+                fail(near >= 2 ? "merged same colour" : lookAlike ? "look-alike box" : "spurious", v.type);
             }
             return;
         }
