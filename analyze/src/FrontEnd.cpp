@@ -148,18 +148,6 @@ AVATAR_AVX512F void demosaicRowAvx512(const float* m0, const float* m1, const fl
 #undef AVATAR_AVX512F
 #endif
 
-/// Whether the CPU and the OS run AVX-512F code: asked once, then constant.
-bool runsAvx512f() {
-#ifdef AVATAR_DEMOSAIC_AVX512
-    static const bool yes = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx512f") != 0;
-    }();
-    return yes;
-#else
-    return false;
-#endif
-}
 
 /// Float planes to sample planes (the values are exact integers in range).
 template <typename S>
@@ -298,7 +286,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     std::vector<float> blockRow(n / 4 + 1);
 
     const float full = static_cast<float>((1 << in.bitDepth) - 1);
-    [[maybe_unused]] const bool avx512 = !in.portableKernels && runsAvx512f();
+    [[maybe_unused]] const bool avx512 = !in.portableKernels && cpuRunsAvx512f();
     const bool measure = in.visibility && !regional;
     const bool reduce = measure && w % 4 == 0 && h % 4 == 0;
     if (measure && !reduce && !writeImage)

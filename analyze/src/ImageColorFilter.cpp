@@ -419,19 +419,6 @@ template <typename T>
 using RatioKernel = void (*)(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
                              const RatioLimits<T>& lim);
 
-/// Whether the CPU and the OS run AVX-512F code: asked once, then constant.
-bool cpuRunsAvx512f() {
-#ifdef AVATAR_RATIO_AVX512
-    static const bool yes = [] {
-        __builtin_cpu_init();  // a plan may be made before the constructor that would call it has run
-        return __builtin_cpu_supports("avx512f") != 0;
-    }();
-    return yes;
-#else
-    return false;
-#endif
-}
-
 /// HSV test on one row span of planar samples. Hue is computed in float with
 /// one division (correctly rounded, so it depends only on the ratio of the
 /// samples); saturation and value use exact limits like the ratio test.
@@ -537,7 +524,7 @@ void ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t
 template <typename T>
 Plan::Row ratioRowFor() {
 #ifdef AVATAR_RATIO_AVX512
-    if (cpuRunsAvx512f()) return &ratioRowErased<T, &ratioRowAvx512<T>>;
+    if (detail::cpuRunsAvx512f()) return &ratioRowErased<T, &ratioRowAvx512<T>>;
 #endif
     return &ratioRowErased<T, &ratioRow<T>>;
 }

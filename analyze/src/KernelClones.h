@@ -12,3 +12,22 @@
 #else
 #define AVATAR_KERNEL_CLONES
 #endif
+
+namespace avatar::detail {
+
+/// Whether the CPU and the OS run AVX-512F code, for the hand-written
+/// kernels that are picked at run time (the colour filter's ratio test, the
+/// front end's demosaic): asked once, then constant.
+inline bool cpuRunsAvx512f() {
+#if defined(__GNUC__) && defined(__x86_64__)
+    static const bool yes = [] {
+        __builtin_cpu_init();  // a kernel may be chosen before the constructor that would call it has run
+        return __builtin_cpu_supports("avx512f") != 0;
+    }();
+    return yes;
+#else
+    return false;
+#endif
+}
+
+}  // namespace avatar::detail

@@ -710,18 +710,25 @@ cv::Mat referenceErodeRestore(const cv::Mat& mask, int kernelSize) {
     }
 }
 
+/// A random mask of @p size, on with probability @p density; @p blobs:
+/// blurred and thresholded again, which gives blobs of several sizes, not
+/// just salt.
+cv::Mat randomMask(cv::RNG& rng, cv::Size size, double density, bool blobs) {
+    cv::Mat noise(size, CV_32F);
+    rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+    cv::Mat mask = noise < density;
+    if (blobs) {
+        cv::blur(mask, mask, {3, 3});
+        mask = mask > 127;
+    }
+    return mask;
+}
+
 TEST(ErodeRestore, MatchesIterativeReconstructionOnRandomMasks) {
     cv::RNG rng(7);
     for (int trial = 0; trial < 40; ++trial) {
         const cv::Size size(rng.uniform(1, 80), rng.uniform(1, 60));
-        cv::Mat noise(size, CV_32F);
-        rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
-        cv::Mat mask = noise < 0.55 + 0.05 * (trial % 5);
-        // Blur-and-threshold gives blobs of several sizes, not just salt.
-        if (trial % 2 == 0) {
-            cv::blur(mask, mask, {3, 3});
-            mask = mask > 127;
-        }
+        const cv::Mat mask = randomMask(rng, size, 0.55 + 0.05 * (trial % 5), trial % 2 == 0);
         const int kernel = 3 + 2 * (trial % 3);
         SCOPED_TRACE("trial " + std::to_string(trial) + ", kernel " + std::to_string(kernel));
         EXPECT_EQ(differingPixels(erodeRestore(mask, kernel), referenceErodeRestore(mask, kernel)),
@@ -758,11 +765,7 @@ TEST(ErodeRestore, InPlaceFromRowSpansMatchesTheReconstruction) {
     cv::RNG rng(31);
     for (int trial = 0; trial < 40; ++trial) {
         const cv::Size size(rng.uniform(1, 200), rng.uniform(1, 60));
-        cv::Mat noise(size, CV_32F);
-        rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
-        cv::Mat mask = noise < 0.55 + 0.05 * (trial % 5);
-        cv::blur(mask, mask, {3, 3});
-        mask = mask > 127;
+        cv::Mat mask = randomMask(rng, size, 0.55 + 0.05 * (trial % 5), true);
         mask(cv::Rect(0, 0, size.width, size.height / 3)).setTo(0);  // empty rows too
         const int kernel = 3 + 2 * (trial % 3);
         SCOPED_TRACE("trial " + std::to_string(trial) + ", kernel " + std::to_string(kernel));
