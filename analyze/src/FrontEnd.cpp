@@ -404,8 +404,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
     }
     pass(cv::Rect(0, 0, w, h));
     if (in.visibility)
-        out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total(),
-                                                        &out.visibilityScratch)
+        out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total())
                                 : measureVisibility(out.bgr, in.bitDepth);
     else
         out.visibility.reset();
@@ -486,8 +485,7 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
     }
     if (measure)
         out.visibility = visibilityFromReduced(out.reduced, in.bitDepth, saturated,
-                                               static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch),
-                                               &out.visibilityScratch);
+                                               static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch));
     else if (in.visibility)
         out.visibility = measureVisibility(out.bgr, in.bitDepth);
     else

@@ -71,7 +71,6 @@ struct FrontEndResult {
     /// Scratch for the visibility's 4x4 reduction, kept by a caller that runs
     /// the pass again on images of the same size (no allocation per frame).
     cv::Mat reduced;
-    VisibilityScratch visibilityScratch;  ///< likewise
     /// With regions: the caller's bgr or masks are known to be 0 outside them
     /// (else they are cleared first).
     bool bgrZeroOutsideRegions{false};
@@ -87,8 +86,7 @@ struct CoarseResult {
     /// With FrontEndInput::visibility: the measures from the superpixels
     /// (saturated ones, and their 2x2 means as the whole pass's 4x4 ones).
     std::optional<VisibilityMeasures> visibility;
-    cv::Mat reduced;                      ///< scratch kept across frames
-    VisibilityScratch visibilityScratch;  ///< likewise
+    cv::Mat reduced;  ///< scratch kept across frames
 };
 
 /// The coarse pass of coarse-to-fine: each 2x2 block of mosaic sites one

@@ -8,7 +8,6 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 
@@ -26,17 +25,13 @@ void downsampleArea4(const cv::Mat& image, cv::Mat& out);
 /// per-channel comparison reduced by "or", without the temporary masks.
 std::int64_t countPixelsWithAnyAtLeast(const cv::Mat& image, double threshold);
 
-/// The float images measureVisibility() works on, kept by a caller that
-/// measures images of one size again and again (no allocation per frame).
-struct VisibilityScratch {
-    cv::Mat scaled, luma, minChannel;
-    std::array<cv::Mat, 3> channels;
-};
-
-/// measureVisibility() from its parts: @p small the image reduced by
+/// measureVisibility() from its parts: @p small the BGR image reduced by
 /// downsampleArea4(), @p saturatedPixels of @p pixels at full scale. The
-/// fused front end gathers both in its pass over the image.
+/// fused front end gathers both in its pass over the image. Contrast and haze
+/// come from exact integer sums over @p small (luma in thousandths, its
+/// square, the smallest channel), rounded once at the end, in one pass that
+/// allocates nothing.
 VisibilityMeasures visibilityFromReduced(const cv::Mat& small, int bitDepth, std::int64_t saturatedPixels,
-                                         std::size_t pixels, VisibilityScratch* reuse = nullptr);
+                                         std::size_t pixels);
 
 }  // namespace avatar::detail

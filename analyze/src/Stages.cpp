@@ -134,7 +134,6 @@ private:
     std::array<detail::BufferPool, 2> images_;
     std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
     std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
-    std::array<detail::VisibilityScratch, 2> visibilityScratch_;
     std::array<detail::CoarseResult, 2> coarsePass_;
     /// The share of each side's image that its last frame's image around the
     /// features covered (featuresFound()).
@@ -500,7 +499,6 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     in.regions = &regions;
     detail::FrontEndResult out;
     out.reduced = std::move(reduced_[i]);
-    out.visibilityScratch = std::move(visibilityScratch_[i]);
     const auto buffer = [&](detail::BufferPool& pool, int type) {
         return regions.empty() ? pool.get(mosaic.size(), type) : pool.getZeroedOutside(mosaic.size(), type, regions);
     };
@@ -518,7 +516,6 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     else if (frame.coarse && !regions.empty() && coarsePass_[i].visibility)
         work.visibility = *coarsePass_[i].visibility;
     reduced_[i] = std::move(out.reduced);
-    visibilityScratch_[i] = std::move(out.visibilityScratch);
     if (in.tests != nullptr) {
         maskRows_[i] = std::move(out.maskRows);
         for (const cv::Mat& mask : work.masks) written_[i].push_back(mask.data);
