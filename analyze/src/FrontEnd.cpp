@@ -145,6 +145,57 @@ AVATAR_AVX512F void demosaicRowAvx512(const float* m0, const float* m1, const fl
     }
 }
 
+/// demosaicRowAvx512() and, on the values it keeps in its registers, the
+/// visibility's column sums (started when @p first, else added to) and the
+/// count of pixels with a channel at or above @p full: sumAndCount() over
+/// columns 1..n-2, without reading the planes back. The sums of the row's own
+/// colour, green and the third colour are @p sumCr, @p sumGreen, @p sumOther.
+AVATAR_AVX512F std::int32_t demosaicSumRowAvx512(const float* m0, const float* m1, const float* m2, bool ownEven,
+                                                 float* cr, float* green, float* other, float* sumCr,
+                                                 float* sumGreen, float* sumOther, bool first, float full, int n) {
+    const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f);
+    const __m512 half = _mm512_set1_ps(0.5f), quarter = _mm512_set1_ps(0.25f);
+    const __m512 top = _mm512_set1_ps(full);
+    constexpr int kTruncate = _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC;
+    std::int32_t saturated = 0;
+    for (int x = 1; x < n - 1; x += 16) {
+        const int left = n - 1 - x;
+        const auto valid = static_cast<__mmask16>(left >= 16 ? 0xFFFFu : (1u << left) - 1u);
+        const auto own = static_cast<__mmask16>(((x & 1) == 0) == ownEven ? 0x5555u : 0xAAAAu);
+        const __m512 s = _mm512_maskz_loadu_ps(valid, m1 + x);
+        const __m512 h = _mm512_add_ps(_mm512_maskz_loadu_ps(valid, m1 + x - 1), _mm512_maskz_loadu_ps(valid, m1 + x + 1));
+        const __m512 v = _mm512_add_ps(_mm512_maskz_loadu_ps(valid, m0 + x), _mm512_maskz_loadu_ps(valid, m2 + x));
+        const __m512 d = _mm512_add_ps(
+            _mm512_add_ps(_mm512_maskz_loadu_ps(valid, m0 + x - 1), _mm512_maskz_loadu_ps(valid, m0 + x + 1)),
+            _mm512_add_ps(_mm512_maskz_loadu_ps(valid, m2 + x - 1), _mm512_maskz_loadu_ps(valid, m2 + x + 1)));
+        const __m512 scale = _mm512_mask_blend_ps(own, half, quarter);
+        const __m512 near = _mm512_maskz_roundscale_ps(
+            0xFFFF, _mm512_mul_ps(_mm512_mask_blend_ps(own, _mm512_add_ps(h, one), _mm512_add_ps(_mm512_add_ps(h, v), two)), scale),
+            kTruncate);
+        const __m512 far = _mm512_maskz_roundscale_ps(
+            0xFFFF, _mm512_mul_ps(_mm512_mask_blend_ps(own, _mm512_add_ps(v, one), _mm512_add_ps(d, two)), scale),
+            kTruncate);
+        const __m512 c = _mm512_mask_blend_ps(own, near, s), g = _mm512_mask_blend_ps(own, s, near);
+        _mm512_mask_storeu_ps(cr + x, valid, c);
+        _mm512_mask_storeu_ps(green + x, valid, g);
+        _mm512_mask_storeu_ps(other + x, valid, far);
+        if (first) {
+            _mm512_mask_storeu_ps(sumCr + x, valid, c);
+            _mm512_mask_storeu_ps(sumGreen + x, valid, g);
+            _mm512_mask_storeu_ps(sumOther + x, valid, far);
+        } else {
+            _mm512_mask_storeu_ps(sumCr + x, valid, _mm512_add_ps(_mm512_maskz_loadu_ps(valid, sumCr + x), c));
+            _mm512_mask_storeu_ps(sumGreen + x, valid, _mm512_add_ps(_mm512_maskz_loadu_ps(valid, sumGreen + x), g));
+            _mm512_mask_storeu_ps(sumOther + x, valid, _mm512_add_ps(_mm512_maskz_loadu_ps(valid, sumOther + x), far));
+        }
+        const __mmask16 atFull = _mm512_mask_cmp_ps_mask(valid, c, top, _CMP_GE_OQ) |
+                                 _mm512_mask_cmp_ps_mask(valid, g, top, _CMP_GE_OQ) |
+                                 _mm512_mask_cmp_ps_mask(valid, far, top, _CMP_GE_OQ);
+        saturated += __builtin_popcount(static_cast<unsigned>(atFull));
+    }
+    return saturated;
+}
+
 #undef AVATAR_AVX512F
 #endif
 
@@ -313,6 +364,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
         for (int y = area.y; y < area.y + area.height; ++y) {
             // The first and last rows copy their neighbour's demosaic, as OpenCV's.
             const int source = std::clamp(y, 1, h - 2);
+            bool summed = false;  // this row's visibility sums gathered by the demosaic
             if (source != lastSource) {
                 while (loaded < source + 1) {
                     ++loaded;
@@ -323,7 +375,13 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
                 float* third = demosaiced[otherColour[parity]];
                 const std::size_t roles = static_cast<std::size_t>(parity) * n + o;
 #ifdef AVATAR_DEMOSAIC_AVX512
-                if (avx512)
+                if (avx512 && reduce) {  // a whole-image pass (c0 = 0, c1 = w): the sums on the way
+                    saturated += demosaicSumRowAvx512(
+                        mosaicRow[(source - 1) % 3], mosaicRow[source % 3], mosaicRow[(source + 1) % 3],
+                        ownColumn[roles] != 0.0f, own, demosaiced[1], third, sums[ownColour[parity]], sums[1],
+                        sums[otherColour[parity]], y % 4 == 0, full, w);
+                    summed = true;
+                } else if (avx512)
                     demosaicRowAvx512(mosaicRow[(source - 1) % 3] + o, mosaicRow[source % 3] + o,
                                       mosaicRow[(source + 1) % 3] + o, ownColumn[roles] != 0.0f, own + o,
                                       demosaiced[1] + o, third + o, m);
@@ -335,6 +393,13 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
                 for (float* plane : demosaiced) {  // the first and last columns copy their neighbour's
                     if (c0 == 0) plane[0] = plane[1];
                     if (c1 == w) plane[w - 1] = plane[w - 2];
+                }
+                if (summed) {  // and are summed here, as sumAndCount() would
+                    for (const int x : {0, w - 1}) {
+                        for (int c = 0; c < 3; ++c)
+                            sums[c][x] = y % 4 == 0 ? demosaiced[c][x] : sums[c][x] + demosaiced[c][x];
+                        saturated += (demosaiced[0][x] >= full) | (demosaiced[1][x] >= full) | (demosaiced[2][x] >= full);
+                    }
                 }
                 lastSource = source;
             }
@@ -374,7 +439,7 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
 
             if (measure) {
                 if (reduce) {
-                    saturated += sumAndCount(b, g, r, sums[0], sums[1], sums[2], w, full, y % 4 == 0);
+                    if (!summed) saturated += sumAndCount(b, g, r, sums[0], sums[1], sums[2], w, full, y % 4 == 0);
                     if (y % 4 == 3)
                         storeBlockMeans(sums, blockRow.data(), samplePlanes.data(), small.ptr<S>(y / 4), w / 4);
                 } else {
