@@ -526,6 +526,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     bool normalised = false;
     ShapeModel model = ShapeModel::None;
     cv::Vec3d discNormal;  // the disc model's plane normal (left camera frame)
+    double sphereRadiusMm = 0.0;  // the sphere model's radius (mean of the two cones)
     // A partial round target is still located by its model when most of
     // each outline is its own: its best estimate (it is not flagged whole).
     if (round && views[0].modelUsable && views[1].modelUsable) {
@@ -538,6 +539,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 const double rl = cv::norm(sphere->leftMm) * std::sin(cl->halfAngle);
                 const double rr = cv::norm(sphere->rightMm) * std::sin(cr->halfAngle);
                 if (std::abs(rl - rr) > limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr)) sphere.reset();
+                else sphereRadiusMm = 0.5 * (rl + rr);
             }
             sl = cl->axis;
             sr = cr->axis;
@@ -669,6 +671,22 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                mismatch > limits_.maxSizeMismatch) {
         target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
     }
+    // The type's physical size, the mean of the two views at the range: a
+    // sphere's diameter from its cones, a disc's from its ellipses' major
+    // axes (a disc seen at an angle keeps it, not its area), any other's the
+    // diameter of the circle of its silhouette's area. Larger: more than one
+    // target in one feature (or something else of this colour); smaller:
+    // what it is cannot be decided.
+    double sizeMm = (sizeL + sizeR) / std::sqrt(M_PI);
+    if (model == ShapeModel::Sphere) {
+        sizeMm = 2.0 * sphereRadiusMm;
+    } else if (model == ShapeModel::Disc) {
+        const auto major = [](const EllipseFit& f) { return std::max(f.ideal.size.width, f.ideal.size.height); };
+        sizeMm = 0.5 * (major(views[0].fit) * dl / config_.stereo.left.fc[0] +
+                        major(views[1].fit) * dr / config_.stereo.right.fc[0]);
+    }
+    if (type.sizeMm && sizeMm > type.sizeMm->max) target.flags |= kTargetMerged;
+    if (type.sizeMm && sizeMm < type.sizeMm->min) target.flags |= kTargetAmbiguous;
     // Epipolar tangency: the epipolar planes that touch a rigid object's top
     // and bottom are the same for both cameras, so its two silhouettes must
     // reach the same rectified rows. A view that stops short at either end
@@ -711,7 +729,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     if (log4cpp::Category& log = logger(); log.isDebugEnabled()) {
         auto stream = log.debugStream();
         stream << type.name << " at L " << cl << " R " << cr << ": tangency top " << topPx << " bottom " << bottomPx
-               << " px, size mismatch " << mismatch
+               << " px, size mismatch " << mismatch << ", size " << sizeMm << " mm"
                << (left.typeShare < left.minShare || right.typeShare < right.minShare ? ", type share low" : "")
                << (left.type != right.type ? ", types differ" : "") << (conflict ? ", match conflict" : "");
         for (int s = 0; s < 2; ++s) {

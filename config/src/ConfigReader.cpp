@@ -434,7 +434,7 @@ std::vector<BrightnessBand> readBands(Reader& r, const XMLElement* el, const std
 TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) {
     const Section s(r, el, path,
                     {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "hsv", "erodeRestore",
-                     "erodeKernelSize", "area", "aspectRatio", "areaRatio", "window", "shape"},
+                     "erodeKernelSize", "area", "aspectRatio", "areaRatio", "window", "shape", "sizeMm"},
                     {"name"});
     TargetType t;
     const char* name = el->Attribute("name");
@@ -461,6 +461,9 @@ TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) 
     s.getOptional("areaRatio", t.areaRatio, readRange);
     s.getOptional("window", t.window, readWindow);
     s.getOptional("shape", t.shape, readEnum<TargetShape>);
+    if (s.has("sizeMm")) {
+        t.sizeMm = s.get("sizeMm", readRange);
+    }
     return t;
 }
 

@@ -269,6 +269,9 @@ void validateTarget(const Checker& k, const TargetType& t, const std::string& p)
     k.range(t.aspectRatio, 0.0, kInf, p + "/aspectRatio");
     k.range(t.areaRatio, 0.0, 1.0, p + "/areaRatio");
     k.enumerator(t.shape, p + "/shape");
+    if (t.sizeMm) {
+        k.range(*t.sizeMm, 0.0, kInf, p + "/sizeMm");
+    }
 }
 
 void validateTargets(const Checker& k, const TargetConfig& targets, const CameraHardwareConfig& camera) {

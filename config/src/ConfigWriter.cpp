@@ -122,6 +122,9 @@ void writeTarget(Writer& w, const TargetType& t) {
     w.integer("height", t.window.height);
     w.close();
     w.text("shape", enumWord(t.shape).value_or("?"));
+    if (t.sizeMm) {
+        w.range("sizeMm", *t.sizeMm);
+    }
     w.close();
 }
 

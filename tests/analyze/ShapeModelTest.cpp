@@ -446,6 +446,44 @@ TEST(Completeness, AColourWithinTheMarginOfAnotherFilterIsNearIt) {
     EXPECT_EQ(near, std::vector<bool>({false, false}));
 }
 
+// The type's physical size (sizeMm): two ducks of one colour side by side
+// are one feature whose views agree with each other, so nothing else tells
+// them from one duck; the size does. Within the range a duck stays whole,
+// above it the pair is merged, below it a duck is ambiguous.
+TEST(Completeness, TheTypesSizeTellsTwoTouchingDucksFromOne) {
+    const double r = 35.0;
+    const cv::Vec3d centre(-60, 20, 800);
+    render::Scene one = emptyLab();
+    one.targets = {target("duck", render::Shape::Duck, centre, r)};
+    AvatarConfig cfg = config(TargetShape::Composite);
+    const Outcome alone = run(one, cfg);
+    // Its size from the truth: the diameter of the circle of its silhouette's area at its range.
+    const render::TargetTruth& truth = alone.truth.target("duck");
+    const double size = 2.0 * std::sqrt(truth.left.areaPx / M_PI) * cv::norm(truth.centreLeftMm) / cfg.stereo.left.fc[0];
+    ASSERT_GT(size, 1.5 * r);
+    ASSERT_LT(size, 3.0 * r);
+    auto d = alone.of("duck");
+    ASSERT_TRUE(d && (d->flags & kTargetWhole)) << flagsOf(d);
+
+    cfg.targets.targets[0].sizeMm = Range{0.9 * size, 1.1 * size};  // "sample", the yellow type
+    d = run(one, cfg).of("duck");
+    EXPECT_TRUE(d && (d->flags & kTargetWhole)) << flagsOf(d);
+
+    render::Scene two = one;
+    two.targets.push_back(target("neighbour", render::Shape::Duck, centre + cv::Vec3d(1.7 * r, 0, 0), r));
+    const Outcome pair = run(two, cfg);
+    ASSERT_EQ(pair.stereoCount(), 1) << "the two ducks must make one feature";
+    for (const VisionTarget& v : pair.result.targets) {
+        if (v.flags & kTargetStereo) {
+            EXPECT_TRUE((v.flags & kTargetMerged) && !(v.flags & kTargetWhole)) << targetFlagsText(v.flags);
+        }
+    }
+
+    cfg.targets.targets[0].sizeMm = Range{1.2 * size, 2.0 * size};
+    d = run(one, cfg).of("duck");
+    EXPECT_TRUE(d && (d->flags & kTargetAmbiguous) && !(d->flags & kTargetWhole)) << flagsOf(d);
+}
+
 // A duck (a composite type: no model checks its outline) whose head is
 // topped by a grey sphere in front of it in the left image only: little of
 // its area is lost, but its silhouette there ends lower than in the right

@@ -47,8 +47,10 @@ TEST(ConfigRoundTrip, DefaultsExceptRequiredRoundTrip) {
     c.targets.targets[0].name = "t";
     ASSERT_FALSE(c.stereo.baseTVision.has_value());
     ASSERT_FALSE(c.targets.targets[0].brightness.has_value());
+    ASSERT_FALSE(c.targets.targets[0].sizeMm.has_value());
     const std::string xml = writeConfigString(c);
     EXPECT_EQ(xml.find("<baseTVision>"), std::string::npos);
+    EXPECT_EQ(xml.find("<sizeMm>"), std::string::npos);
     // <brightness> only as the camera feature, not as the target's optional range.
     ASSERT_NE(xml.find("<brightness>"), std::string::npos);
     EXPECT_EQ(xml.find("<brightness>"), xml.rfind("<brightness>"));
@@ -164,6 +166,9 @@ std::vector<Mutation> mutations() {
     add("target[1].brightness.min", [](AvatarConfig& c) { c.targets.targets[0].brightness->min = 2; });
     add("target[1].brightness.max", [](AvatarConfig& c) { c.targets.targets[0].brightness->max = 3; });
     add("target[1].brightness unset", [](AvatarConfig& c) { c.targets.targets[0].brightness.reset(); });
+    add("target[1].sizeMm.min", [](AvatarConfig& c) { c.targets.targets[0].sizeMm->min = 2; });
+    add("target[1].sizeMm.max", [](AvatarConfig& c) { c.targets.targets[0].sizeMm->max = 300; });
+    add("target[1].sizeMm unset", [](AvatarConfig& c) { c.targets.targets[0].sizeMm.reset(); });
     add("target[2].brightness set", [](AvatarConfig& c) { c.targets.targets[1].brightness = Range{0, 1}; });
     add("target[2].brightnessBands set", [](AvatarConfig& c) {
         c.targets.targets[1].brightnessBands = {BrightnessBand{{0, 90.5}, {1.0 / 3.0, 2}, {0.5, 1e9}, {0, 0.25}},

@@ -44,6 +44,7 @@ inline AvatarConfig unusualConfig() {
     duck.areaRatio = {0.4, 0.95};
     duck.window = {16, 8, 1000, 700};
     duck.shape = TargetShape::Sphere;
+    duck.sizeMm = Range{61.25, 1e-3 + 98.5};
 
     TargetType marker;
     marker.name = "arm-Marker";

@@ -97,6 +97,14 @@ struct TargetType {
     Range areaRatio{0.0, 1.0};  ///< area / bounding-box area, within [0, 1]
     SearchWindow window;        ///< where to look
     TargetShape shape{TargetShape::None};
+    /// The physical size of one target of this type, mm, as measured at its
+    /// range (the mean of the two views): a sphere's or disc's diameter (its
+    /// fitted ellipses' major axes) when the type is round, otherwise the
+    /// diameter of the circle with its silhouette's area (2 sqrt(A / pi) d / f).
+    /// A stereo target outside it is not whole: larger, `merged` (touching
+    /// targets seen as one, or something bigger of this colour); smaller,
+    /// `ambiguous`. Unset: not checked.
+    std::optional<Range> sizeMm;
 
     bool operator==(const TargetType& o) const {
         return name == o.name && filter == o.filter && redGreen == o.redGreen &&
@@ -105,7 +113,7 @@ struct TargetType {
                hsv == o.hsv && erodeRestore == o.erodeRestore &&
                erodeKernelSize == o.erodeKernelSize && area == o.area &&
                aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window &&
-               shape == o.shape;
+               shape == o.shape && sizeMm == o.sizeMm;
     }
 };
 
