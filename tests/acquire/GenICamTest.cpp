@@ -74,6 +74,23 @@ double elapsedMs(Clock::time_point since) {
     return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
 }
 
+/// The first acquisition error after a camera process was killed. Packets it
+/// had already sent sit in this process's socket buffer and may still complete
+/// a frame or two after the kill (seen on a loaded CI machine); those pairs are
+/// genuine and are counted in @p delivered. More than two is a failure.
+std::string firstErrorAfterKill(AcquireSIPGenICam& acquire, int& delivered) {
+    for (int i = 0; i < 3; ++i) {
+        try {
+            acquire.acquire();
+            ++delivered;
+        } catch (const AcquisitionError& e) {
+            return e.what();
+        }
+    }
+    ADD_FAILURE() << "pairs still arrived three times after a camera was killed";
+    return {};
+}
+
 class GenICamTest : public test::FakeCameraPairTest {
 protected:
     GenICamTest() : FakeCameraPairTest("avatar-genicam-test") {}
@@ -432,7 +449,8 @@ TEST_F(GenICamTest, KilledCameraIsNamedRecoveredAndNumberingContinues) {
     acquire.acquire();
 
     right_.stop();  // SIGKILL: the camera vanishes mid-stream
-    std::string m = messageOf<AcquisitionError>([&] { acquire.acquire(); });
+    int inFlight = 0;
+    std::string m = firstErrorAfterKill(acquire, inFlight);
     EXPECT_NE(m.find("right camera Aravis-Fake-GV02 delivered no complete frame within 1000 ms"), std::string::npos)
         << m;
     AcquisitionStatus s = acquire.status();
@@ -450,9 +468,9 @@ TEST_F(GenICamTest, KilledCameraIsNamedRecoveredAndNumberingContinues) {
     EXPECT_EQ(acquire.status().state, AcquisitionStatus::State::Ok);
     EXPECT_TRUE(acquire.status().message.empty());
     EXPECT_EQ(a.pair.id().group, 1u);
-    EXPECT_EQ(a.pair.id().member, 2u);  // failed grabs use no number
+    EXPECT_EQ(a.pair.id().member, 2u + inFlight);  // failed grabs use no number
     EXPECT_EQ(rampViolations(a.pair.right()), 0);
-    EXPECT_EQ(acquire.acquire().pair.id().member, 3u);
+    EXPECT_EQ(acquire.acquire().pair.id().member, 3u + inFlight);
     EXPECT_EQ(acquire.statistics().cameraLosses, 1u);
     EXPECT_EQ(acquire.statistics().reconnections, 1u);
     EXPECT_EQ(acquire.readBack(Side::Right).width, kWidth);  // re-configured
@@ -465,8 +483,8 @@ TEST_F(GenICamTest, GivesUpAfterTheReconnectAttemptsAndApplyConfigReopens) {
     acquire.acquire();
 
     left_.stop();
-    EXPECT_NE(messageOf<AcquisitionError>([&] { acquire.acquire(); }).find("left camera Aravis-Fake-GV01"),
-              std::string::npos);
+    int inFlight = 0;
+    EXPECT_NE(firstErrorAfterKill(acquire, inFlight).find("left camera Aravis-Fake-GV01"), std::string::npos);
     messageOf<AcquisitionError>([&] { acquire.acquire(); });  // attempt 1
     const std::string m = messageOf<AcquisitionError>([&] { acquire.acquire(); });  // attempt 2
     EXPECT_NE(m.find("gave up after 2 reconnection attempts"), std::string::npos) << m;
