@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 
 namespace avatar::detail {
 
@@ -31,34 +32,43 @@ constexpr std::array<Direction, 4> kDirections{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}
 /// One channel's sums over a row of the region: of the target's pixels
 /// (@p target 1), of the background's (@p background 1), and of the squared
 /// differences of target pixels two apart (@p pair 1 at x: x and x + 2 are
-/// the target's). The squares are exact integers; @p big is set when one of
-/// them exceeds 2^24, where the float square the definition uses rounds.
+/// the target's). Each square is the float square the definition takes:
+/// exact up to 2^24, rounded to float above (and still below 2^32).
 AVATAR_KERNEL_CLONES void channelSums(const std::uint16_t* __restrict p, const std::uint8_t* __restrict target,
                                       const std::uint8_t* __restrict background,
-                                      const std::uint8_t* __restrict pair, int n, std::int64_t* __restrict sums,
-                                      bool& big) {
+                                      const std::uint8_t* __restrict pair, int n, std::int64_t* __restrict sums) {
     std::uint64_t t = 0, b = 0, d = 0;
-    std::uint32_t over = 0;
-    for (int x = 0; x < n; ++x) {
-        t += static_cast<std::uint32_t>(target[x]) * p[x];
-        b += static_cast<std::uint32_t>(background[x]) * p[x];
+    // In 32 bits over at most 65536 samples (below 2^32), so that the loop
+    // vectorises with as many lanes as the samples.
+    for (int x0 = 0; x0 < n; x0 += 65536) {
+        const int x1 = std::min(n, x0 + 65536);
+        std::uint32_t t32 = 0, b32 = 0;
+        for (int x = x0; x < x1; ++x) {
+            t32 += static_cast<std::uint32_t>(target[x]) * p[x];
+            b32 += static_cast<std::uint32_t>(background[x]) * p[x];
+        }
+        t += t32;
+        b += b32;
     }
     for (int x = 0; x + 2 < n; ++x) {
-        const std::int32_t e = static_cast<std::int32_t>(p[x]) - static_cast<std::int32_t>(p[x + 2]);
-        const auto a = static_cast<std::uint32_t>(e < 0 ? -e : e);  // a * a < 2^32
-        const std::uint32_t sq = static_cast<std::uint32_t>(pair[x]) * (a * a);
-        d += sq;
-        over |= static_cast<std::uint32_t>(sq > (1u << 24));
+        const float e = static_cast<float>(p[x]) - static_cast<float>(p[x + 2]);  // exact
+        d += static_cast<std::uint32_t>(pair[x]) * static_cast<std::uint32_t>(e * e);
     }
     sums[0] += static_cast<std::int64_t>(t);
     sums[1] += static_cast<std::int64_t>(b);
     sums[2] += static_cast<std::int64_t>(d);
-    big = big || over != 0;
 }
 
 // The per-pixel passes over a region's rows below, as kernels on restrict
 // pointers with the width in a register: written inline, the byte stores
 // could alias everything (the width too), and GCC kept them scalar.
+
+/// Whether any of the @p n bytes of @p row is non-zero.
+AVATAR_KERNEL_CLONES bool anyOn(const std::uint8_t* __restrict row, int n) {
+    std::uint8_t any = 0;
+    for (int x = 0; x < n; ++x) any = static_cast<std::uint8_t>(any | row[x]);
+    return any != 0;
+}
 
 /// A row of the labels from the own mask: 255 where it is on, background elsewhere.
 AVATAR_KERNEL_CLONES void markRow(const std::uint8_t* __restrict mask, std::uint8_t* __restrict labels, int n) {
@@ -224,6 +234,14 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     cv::Mat inBoxes(roi.size(), CV_8UC1);
     for (std::size_t m = 0; m < masks.size(); ++m) {
         const bool ownType = m == ownIndex && ownOverride.empty();
+        // Another type's mask with nothing in the region marks nothing (the
+        // own mask's pixels the flood did not reach are always looked for).
+        if (!ownType) {
+            bool any = false;
+            for (int y = 0; y < roi.height && !any; ++y)
+                any = anyOn(masks[m].ptr<std::uint8_t>(roi.y + y) + roi.x, roi.width);
+            if (!any) continue;
+        }
         inBoxes.setTo(cv::Scalar(0));
         if (m < work.features.size())
             for (const Feature& f : work.features[m]) {
@@ -240,10 +258,12 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
     cv::Mat isFeature(roi.size(), CV_8UC1), holes(roi.size(), CV_8UC1);
     bool anyHole = false;
-    for (int y = 0; y < roi.height; ++y)
-        anyHole = settleRow(lab.ptr<std::uint8_t>(y), isFeature.ptr<std::uint8_t>(y), holes.ptr<std::uint8_t>(y),
-                            roi.width) ||
-                  anyHole;
+    std::vector<std::uint8_t> holeRow(static_cast<std::size_t>(roi.height));  // 1: the row has a hole pixel
+    for (int y = 0; y < roi.height; ++y) {
+        holeRow[static_cast<std::size_t>(y)] = settleRow(lab.ptr<std::uint8_t>(y), isFeature.ptr<std::uint8_t>(y),
+                                                         holes.ptr<std::uint8_t>(y), roi.width);
+        anyHole = anyHole || holeRow[static_cast<std::size_t>(y)] != 0;
+    }
     // Holes: 8-connected, numbered in raster order of their first pixel (as
     // cv::connectedComponents numbers them; label 0 is no hole). A hole next
     // to another target's or a fragment's pixels (one of its 3x3
@@ -257,7 +277,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         holeLabels = cv::Mat::zeros(roi.size(), CV_32S);
         std::vector<cv::Point> stack;
         for (int y = 0; y < roi.height; ++y)
-            for (int x = 0; x < roi.width; ++x) {
+            for (int x = 0; x < roi.width && holeRow[static_cast<std::size_t>(y)] != 0; ++x) {
                 if (holes.at<std::uint8_t>(y, x) == 0 || holeLabels.at<int>(y, x) != 0) continue;
                 const int label = static_cast<int>(holeAreas.size());
                 holeAreas.push_back(0);
@@ -333,25 +353,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
             if (tc + bc == 0) continue;
             std::uint16_t* plane[3] = {planes.data(), planes.data() + n, planes.data() + 2 * n};
             cv::hal::split16u(bgr.ptr<std::uint16_t>(roi.y + y) + 3 * roi.x, plane, roi.width, 3);
-            bool big = false;
-            std::int64_t pairs[3] = {0, 0, 0};
-            for (int c = 0; c < 3; ++c) {
-                std::int64_t row[3] = {0, 0, 0};
-                channelSums(plane[c], isTarget, isBackground, isPair, roi.width, row, big);
-                sums[c][0] += row[0];
-                sums[c][1] += row[1];
-                pairs[c] = row[2];
-            }
-            if (big)  // a square above 2^24: the float square, rounded as the definition's
-                for (int c = 0; c < 3; ++c) {
-                    pairs[c] = 0;
-                    for (int x = 0; x + 2 < roi.width; ++x)
-                        if (isPair[x] != 0) {
-                            const float e = static_cast<float>(plane[c][x]) - static_cast<float>(plane[c][x + 2]);
-                            pairs[c] += static_cast<std::int64_t>(e * e);
-                        }
-                }
-            for (int c = 0; c < 3; ++c) sums[c][2] += pairs[c];
+            for (int c = 0; c < 3; ++c) channelSums(plane[c], isTarget, isBackground, isPair, roi.width, sums[c]);
         }
         std::int64_t ts[3], bs[3], ds[3];
         for (int c = 0; c < 3; ++c) {
@@ -394,6 +396,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     if (holeCount > 1 && targetMean[1] > 0.f) {
         std::vector<cv::Vec3d> sums(static_cast<std::size_t>(holeCount), cv::Vec3d(0, 0, 0));
         for (int y = 0; y < roi.height; ++y) {
+            if (holeRow[static_cast<std::size_t>(y)] == 0) continue;
             const int* c = holeLabels.ptr<int>(y);
             for (int x = 0; x < roi.width; ++x)
                 if (c[x] > 0) sums[static_cast<std::size_t>(c[x])] += cv::Vec3d(colour(x, y));
@@ -440,6 +443,10 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         double variance;
     };
     std::vector<FreeEdge> freeEdges;
+    // About one outline point per pixel edge along the box's perimeter.
+    const auto perimeter = static_cast<std::size_t>(4 * (box.width + box.height));
+    out.outline.reserve(perimeter);
+    freeEdges.reserve(perimeter);
     const int wx0 = window.x - roi.x, wy0 = window.y - roi.y;
     const int wx1 = wx0 + window.width, wy1 = wy0 + window.height;
     std::vector<std::uint8_t> edges(static_cast<std::size_t>(roi.width));
@@ -450,7 +457,14 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         pixelCount += count;
         pixelSumY += static_cast<std::int64_t>(count) * y;
         for (int x = 0; x < roi.width; ++x) {
-            if (edges[static_cast<std::size_t>(x)] == 0) continue;
+            if (edges[static_cast<std::size_t>(x)] == 0) {
+                // Skip the inside and the background eight pixels a step.
+                std::uint64_t word = 0;
+                while (x + 9 <= roi.width &&
+                       (std::memcpy(&word, edges.data() + x + 1, sizeof word), word == 0))
+                    x += 8;
+                continue;
+            }
             for (const Direction& d : kDirections) {
                 const int qx = x + d.dx, qy = y + d.dy;
                 const cv::Point2d mid(roi.x + x + 0.5 * d.dx, roi.y + y + 0.5 * d.dy);
@@ -540,7 +554,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     double a;
                     if (ls == kFeature || ls == kBackground || ls == kOutside) {
                         a = (cv::Vec3d(colour(sx, sy)) - bv).dot(w);
-                        if (a > 0.0 && a < 1.0) edgeVar += var;
+                        edgeVar += a > 0.0 && a < 1.0 ? var : 0.0;  // no branch: it is mispredicted
                         a = std::clamp(a, 0.0, 1.0);
                     } else {
                         a = k <= 0 ? 1.0 : 0.0;  // beyond the region or another target: the mask's side
