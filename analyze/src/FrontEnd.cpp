@@ -1,6 +1,7 @@
 #include "FrontEnd.h"
 
 #include "ImageReduce.h"
+#include "Interleave.h"
 #include "KernelClones.h"
 
 #include <avatar/common/Error.h>
@@ -206,17 +207,22 @@ AVATAR_KERNEL_CLONES void narrowRow(const float* __restrict in, S* __restrict ou
     for (int i = 0; i < n; ++i) out[i] = static_cast<S>(static_cast<std::int32_t>(in[i]));
 }
 
-/// One row of the BGR image from its planes: narrowed here, interleaved by
-/// OpenCV's vectorised merge (a stride-3 store loop costs twice as much).
+/// One row of the BGR image from its planes: narrowed here, then
+/// interleaved (Interleave.h: 16-bit rows stay in the cache, unlike
+/// cv::hal::merge16u's aligned stores; a plain stride-3 store loop costs
+/// twice as much).
 template <typename S>
 void storeRow(const float* b, const float* g, const float* r, S* planes, S* out, int n) {
     S* p[3] = {planes, planes + n, planes + 2 * n};
     narrowRow(b, p[0], n);
     narrowRow(g, p[1], n);
     narrowRow(r, p[2], n);
-    const S* src[3] = {p[0], p[1], p[2]};
-    if constexpr (sizeof(S) == 1) cv::hal::merge8u(src, out, n, 3);
-    else cv::hal::merge16u(src, out, n, 3);
+    if constexpr (sizeof(S) == 1) {
+        const S* src[3] = {p[0], p[1], p[2]};
+        cv::hal::merge8u(src, out, n, 3);
+    } else {
+        interleave3(p[0], p[1], p[2], out, n);  // kept in the cache for the stages that read it next
+    }
 }
 
 /// Pixels with any channel at or above full scale (measureVisibility's count).
@@ -280,9 +286,12 @@ void storeBlockMeans(float* const* sums, float* blockRow, S* planes, S* out, int
         blockSums(sums[c], blockRow, blocks);
         blockMeans(blockRow, p[c], blocks);
     }
-    const S* src[3] = {p[0], p[1], p[2]};
-    if constexpr (sizeof(S) == 1) cv::hal::merge8u(src, out, blocks, 3);
-    else cv::hal::merge16u(src, out, blocks, 3);
+    if constexpr (sizeof(S) == 1) {
+        const S* src[3] = {p[0], p[1], p[2]};
+        cv::hal::merge8u(src, out, blocks, 3);
+    } else {
+        interleave3(p[0], p[1], p[2], out, blocks);  // the visibility reads it next
+    }
 }
 
 /// @p image itself when it has @p size and @p type (true), else a new buffer (false).

@@ -30,4 +30,17 @@ inline bool cpuRunsAvx512f() {
 #endif
 }
 
+/// Whether the CPU and the OS run AVX-512BW code (16-bit lanes), likewise.
+inline bool cpuRunsAvx512bw() {
+#if defined(__GNUC__) && defined(__x86_64__)
+    static const bool yes = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx512bw") != 0;
+    }();
+    return yes;
+#else
+    return false;
+#endif
+}
+
 }  // namespace avatar::detail

@@ -1,9 +1,9 @@
 #include "Silhouette.h"
 
+#include "Interleave.h"
 #include "KernelClones.h"
 
 #include <opencv2/core.hpp>
-#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -352,7 +352,8 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
             diffCount += dc;
             if (tc + bc == 0) continue;
             std::uint16_t* plane[3] = {planes.data(), planes.data() + n, planes.data() + 2 * n};
-            cv::hal::split16u(bgr.ptr<std::uint16_t>(roi.y + y) + 3 * roi.x, plane, roi.width, 3);
+            // Not cv::hal::split16u: its aligned stores bypass the cache, and these rows are read at once.
+            deinterleave3(bgr.ptr<std::uint16_t>(roi.y + y) + 3 * roi.x, plane[0], plane[1], plane[2], roi.width);
             for (int c = 0; c < 3; ++c) channelSums(plane[c], isTarget, isBackground, isPair, roi.width, sums[c]);
         }
         std::int64_t ts[3], bs[3], ds[3];

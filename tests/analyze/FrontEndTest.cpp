@@ -11,6 +11,7 @@
 
 #include "BufferPool.h"
 #include "FrontEnd.h"
+#include "Interleave.h"
 
 #include <avatar/analyze/ImageColorFilter.h>
 #include <avatar/analyze/LightingCorrection.h>
@@ -20,8 +21,10 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <string>
@@ -365,6 +368,33 @@ TEST(FrontEnd, RefusesARegionOutsideTheImage) {
 }
 
 // The pool clears only what a buffer's last user wrote, and all of a fresh one.
+// The interleaving the front end and the silhouettes use in place of
+// cv::hal::merge16u / split16u gives their very samples, at every length
+// (the vector steps of 16 pixels and the tails), and writes nothing beyond.
+TEST(Interleave, GivesWhatOpenCvsMergeAndSplitGiveAtEveryLength) {
+    std::mt19937 rng(3);
+    std::uniform_int_distribution<int> sample(0, 65535);
+    for (int n = 0; n <= 70; ++n) {
+        std::vector<std::uint16_t> planes(3 * static_cast<std::size_t>(n) + 3);
+        for (std::uint16_t& v : planes) v = static_cast<std::uint16_t>(sample(rng));
+        const std::uint16_t* b = planes.data();
+        const std::uint16_t* g = b + n;
+        const std::uint16_t* r = g + n;
+        std::vector<std::uint16_t> ours(3 * static_cast<std::size_t>(n) + 8, 7), theirs(ours.size(), 7);
+        detail::interleave3(b, g, r, ours.data(), n);
+        const std::uint16_t* src[3] = {b, g, r};
+        cv::hal::merge16u(src, theirs.data(), n, 3);
+        ASSERT_EQ(ours, theirs) << "interleave, n = " << n;
+
+        std::vector<std::uint16_t> split(3 * static_cast<std::size_t>(n) + 8, 7), reference(split.size(), 7);
+        detail::deinterleave3(ours.data(), split.data(), split.data() + n, split.data() + 2 * n, n);
+        std::uint16_t* dst[3] = {reference.data(), reference.data() + n, reference.data() + 2 * n};
+        cv::hal::split16u(theirs.data(), dst, n, 3);
+        ASSERT_EQ(split, reference) << "deinterleave, n = " << n;
+        ASSERT_TRUE(std::equal(split.begin(), split.begin() + 3 * n, planes.begin())) << n;
+    }
+}
+
 TEST(BufferPool, ZeroedOutsideClearsWhatTheLastUserWrote) {
     detail::BufferPool pool(2);
     const cv::Size size(50, 40);
