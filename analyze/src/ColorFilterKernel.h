@@ -28,8 +28,10 @@ public:
 
     /// The verdicts (0 or 255) of @p n pixels given as three planes of floats
     /// holding the integer sample values. @p scratch: @p n bytes of the
-    /// caller's, used by a type with brightness bands.
-    void row(const float* b, const float* g, const float* r, std::uint8_t* out, int n, std::uint8_t* scratch) const;
+    /// caller's, used by a type with brightness bands. Returns false when
+    /// every verdict is 0; true when some may be 255 (the AVX-512 ratio test
+    /// knows, the other kernels do not say).
+    bool row(const float* b, const float* g, const float* r, std::uint8_t* out, int n, std::uint8_t* scratch) const;
 
     struct Plan;
 

@@ -266,8 +266,8 @@ AVATAR_KERNEL_CLONES void blockSums(const float* __restrict sums, float* __restr
 
 /// The 4x4-block means from their sums, rounded to nearest with ties to
 /// even, as downsampleArea4() (cv::resize INTER_AREA), as samples. Planar:
-/// the three channels are interleaved afterwards by OpenCV's vectorised merge
-/// (a stride-3 store kept this loop scalar).
+/// the three channels are interleaved afterwards (storeBlockMeans; a stride-3
+/// store kept this loop scalar).
 template <typename S>
 AVATAR_KERNEL_CLONES void blockMeans(const float* __restrict sums, S* __restrict out, int blocks) {
     // sum = 16 q + r: adding 7 and q's parity carries into q exactly when r > 8,
@@ -435,11 +435,11 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
                     continue;
                 }
                 std::memset(mask, 0, static_cast<std::size_t>(win.x));
-                test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
+                const bool some = test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
                 std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
                 int& first = out.maskRows[t].begin[static_cast<std::size_t>(y)];
                 int& last = out.maskRows[t].end[static_cast<std::size_t>(y)];
-                nonZeroSpan(mask + win.x, win.width, first, last);
+                if (some) nonZeroSpan(mask + win.x, win.width, first, last);
                 if (last > first) {
                     first += win.x;
                     last += win.x;

@@ -14,6 +14,7 @@
 #endif
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -369,55 +370,116 @@ AVATAR_AVX512F inline __mmask16 ratioMask16(const float* pb, const float* pg, co
     return static_cast<__mmask16>(kLow | (kHigh << 8));
 }
 
+/// The single limits that can reject a pixel on their own (each one
+/// conjunct of the verdict), as prefilters for ratioRowAvx512: 0-2 the
+/// minima of R/G, R/B, B/G (when above 0), 3-5 their maxima (when closed).
+struct Prefilters {
+    std::array<int, 6> tests{};
+    int count{0};
+
+    template <typename T>
+    explicit Prefilters(const RatioLimits<T>& lim) {
+        const bool usable[6] = {lim.rgLo > T(0), lim.rbLo > T(0), lim.bgLo > T(0),
+                                !lim.rgOpen,     !lim.rbOpen,     !lim.bgOpen};
+        for (int t = 0; t < 6; ++t)
+            if (usable[t]) tests[static_cast<std::size_t>(count++)] = t;
+    }
+};
+
+/// The lanes of the 16 pixels at @p i that pass limit @p test (Prefilters)
+/// alone: one multiply and one compare on the two planes it reads.
+AVATAR_AVX512F inline __mmask16 limitPasses(int test, const float* pb, const float* pg, const float* pr, int i,
+                                            const ZmmRatioLimits<float>& l) {
+    switch (test) {
+    case 0: return _mm512_cmp_ps_mask(_mm512_mul_ps(l.rgLo, _mm512_loadu_ps(pg + i)), _mm512_loadu_ps(pr + i), _CMP_LE_OQ);
+    case 1: return _mm512_cmp_ps_mask(_mm512_mul_ps(l.rbLo, _mm512_loadu_ps(pb + i)), _mm512_loadu_ps(pr + i), _CMP_LE_OQ);
+    case 2: return _mm512_cmp_ps_mask(_mm512_mul_ps(l.bgLo, _mm512_loadu_ps(pg + i)), _mm512_loadu_ps(pb + i), _CMP_LE_OQ);
+    case 3: return _mm512_cmp_ps_mask(_mm512_loadu_ps(pr + i), _mm512_mul_ps(l.rgHi, _mm512_loadu_ps(pg + i)), _CMP_LE_OQ);
+    case 4: return _mm512_cmp_ps_mask(_mm512_loadu_ps(pr + i), _mm512_mul_ps(l.rbHi, _mm512_loadu_ps(pb + i)), _CMP_LE_OQ);
+    default: return _mm512_cmp_ps_mask(_mm512_loadu_ps(pb + i), _mm512_mul_ps(l.bgHi, _mm512_loadu_ps(pg + i)), _CMP_LE_OQ);
+    }
+}
+
 /// ratioRow with AVX-512F: 16 pixels a step, the last n % 16 with masked
 /// loads and a masked store (nothing outside the n pixels is read or written).
 template <typename T, bool Open>
-AVATAR_AVX512F void ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
-                                   const ZmmRatioLimits<T>& l) {
+AVATAR_AVX512F bool ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
+                                   const ZmmRatioLimits<T>& l, const Prefilters& pre) {
     int i = 0;
-    // 64 pixels a step: their minima first, and the rest only when some lane
-    // is left. Most steps of an image are background that fails a minimum,
-    // and one branch per 64 pixels is one the CPU predicts, also in a
-    // tracking frame's regions around the targets (a branch per 16 pixels
-    // missed there at every edge of a target).
+    __mmask16 passed = 0;  // the lanes that passed in some step
+    // 64 pixels a step: one limit alone first (in float), then their minima,
+    // and the rest only when some lane is left. Most steps of an image are
+    // background that fails a limit, and one branch per 64 pixels is one the
+    // CPU predicts, also in a tracking frame's regions around the targets (a
+    // branch per 16 pixels missed there at every edge of a target). The
+    // limit tried alone is the one that rejected the last steps: after a step
+    // it let through that the whole test then rejected, the next is tried
+    // (the background decides which limit it fails; any one is exact, as
+    // each is a conjunct of the verdict).
+    int current = 0;
     for (; i + 64 <= n; i += 64) {
+        if constexpr (std::is_same_v<T, float>) {
+            if (pre.count > 0) {
+                const int test = pre.tests[static_cast<std::size_t>(current)];
+                if ((limitPasses(test, pb, pg, pr, i, l) | limitPasses(test, pb, pg, pr, i + 16, l) |
+                     limitPasses(test, pb, pg, pr, i + 32, l) | limitPasses(test, pb, pg, pr, i + 48, l)) == 0) {
+                    _mm512_storeu_si512(out + i, _mm512_setzero_si512());
+                    continue;
+                }
+            }
+        }
         __mmask16 k[4];
         for (int j = 0; j < 4; ++j)
             k[j] = ratioMask16<RatioPart::Minima, Open>(pb, pg, pr, i + 16 * j, 0xFFFF, l);
+        __mmask16 any = 0;
         if ((k[0] | k[1] | k[2] | k[3]) == 0) {
             _mm512_storeu_si512(out + i, _mm512_setzero_si512());
-            continue;
+        } else {
+            for (int j = 0; j < 4; ++j) {
+                const __mmask16 v = ratioMask16<RatioPart::Maxima, Open>(pb, pg, pr, i + 16 * j, k[j], l);
+                any = static_cast<__mmask16>(any | v);
+                _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i + 16 * j), verdictBytes(v));
+            }
         }
-        for (int j = 0; j < 4; ++j) {
-            const __mmask16 v = ratioMask16<RatioPart::Maxima, Open>(pb, pg, pr, i + 16 * j, k[j], l);
-            _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i + 16 * j), verdictBytes(v));
-        }
+        if (any == 0 && pre.count > 0) current = (current + 1) % pre.count;
+        passed = static_cast<__mmask16>(passed | any);
     }
     for (; i < n; i += 16) {
         const auto valid = static_cast<__mmask16>(n - i >= 16 ? 0xFFFFu : (1u << (n - i)) - 1u);
         const __mmask16 k = ratioMask16<RatioPart::Maxima, Open>(
             pb, pg, pr, i, ratioMask16<RatioPart::Minima, Open>(pb, pg, pr, i, valid, l), l);
         _mm512_mask_cvtepi32_storeu_epi8(out + i, valid, _mm512_maskz_mov_epi32(k, _mm512_set1_epi32(255)));
+        passed = static_cast<__mmask16>(passed | k);
     }
+    return passed != 0;
 }
 
+/// Returns whether any pixel passed (exact).
 template <typename T>
-AVATAR_AVX512F void ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
+AVATAR_AVX512F bool ratioRowAvx512(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
                                    const RatioLimits<T>& lim) {
     const ZmmRatioLimits<T> l(lim);
-    if (lim.rgOpen || lim.rbOpen || lim.bgOpen)
-        ratioRowAvx512<T, true>(pb, pg, pr, out, n, l);
-    else
-        ratioRowAvx512<T, false>(pb, pg, pr, out, n, l);
+    const Prefilters pre(lim);
+    if (lim.rgOpen || lim.rbOpen || lim.bgOpen) return ratioRowAvx512<T, true>(pb, pg, pr, out, n, l, pre);
+    return ratioRowAvx512<T, false>(pb, pg, pr, out, n, l, pre);
 }
 
 #undef AVATAR_AVX512F
 #endif
 
-/// A row kernel of the ratio test: ratioRow<T> or ratioRowAvx512<T>.
+/// A row kernel of the ratio test: ratioRowPortable<T> or ratioRowAvx512<T>;
+/// false when no pixel passed, true when some may have.
 template <typename T>
-using RatioKernel = void (*)(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
+using RatioKernel = bool (*)(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
                              const RatioLimits<T>& lim);
+
+/// ratioRow as a RatioKernel: it does not tell whether a pixel passed.
+template <typename T>
+bool ratioRowPortable(const float* pb, const float* pg, const float* pr, std::uint8_t* out, int n,
+                      const RatioLimits<T>& lim) {
+    ratioRow<T>(pb, pg, pr, out, n, lim);
+    return true;
+}
 
 /// HSV test on one row span of planar samples. Hue is computed in float with
 /// one division (correctly rounded, so it depends only on the ratio of the
@@ -485,7 +547,8 @@ AVATAR_KERNEL_CLONES void splitRowKernel(const S* __restrict px, float* __restri
 /// lies between bands); a pixel passes when it passes the segment of its
 /// brightness. Without bands, one segment.
 struct detail::ColorTest::Plan {
-    using Row = void (*)(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
+    /// False when no pixel passed, true when some may have.
+    using Row = bool (*)(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
                          std::uint8_t* scratch);
     cv::Rect window;
     Row row{nullptr};
@@ -501,7 +564,7 @@ using Plan = detail::ColorTest::Plan;
 
 /// @p Kernel: ratioRow<T> or ratioRowAvx512<T> (ratioRowFor()).
 template <typename T, RatioKernel<T> Kernel>
-void ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
+bool ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
                     std::uint8_t* scratch) {
     const auto& segments = [&]() -> const std::vector<RatioLimits<T>>& {
         if constexpr (std::is_same_v<T, float>) return plan.ratioF;
@@ -509,14 +572,16 @@ void ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t
     }();
     if (segments.empty()) {
         std::memset(out, 0, static_cast<std::size_t>(n));
-        return;
+        return false;
     }
-    Kernel(b, g, r, out, n, segments[0]);
+    bool any = Kernel(b, g, r, out, n, segments[0]);
     // Segments hold disjoint brightness intervals: at most one passes a pixel.
     for (std::size_t k = 1; k < segments.size(); ++k) {
-        Kernel(b, g, r, scratch, n, segments[k]);
+        if (!Kernel(b, g, r, scratch, n, segments[k])) continue;
+        any = true;
         for (int i = 0; i < n; ++i) out[i] |= scratch[i];
     }
+    return any;
 }
 
 /// ratioRowErased with ratioRowAvx512 on a CPU that runs it, else with the
@@ -526,16 +591,17 @@ Plan::Row ratioRowFor() {
 #ifdef AVATAR_RATIO_AVX512
     if (detail::cpuRunsAvx512f()) return &ratioRowErased<T, &ratioRowAvx512<T>>;
 #endif
-    return &ratioRowErased<T, &ratioRow<T>>;
+    return &ratioRowErased<T, &ratioRowPortable<T>>;
 }
 
 template <typename T>
-void hsvRowErased(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
+bool hsvRowErased(const float* b, const float* g, const float* r, std::uint8_t* out, int n, const Plan& plan,
                   std::uint8_t* /*scratch*/) {
     if constexpr (std::is_same_v<T, float>)
         hsvRow<T>(b, g, r, out, n, plan.hsvF);
     else
         hsvRow<T>(b, g, r, out, n, plan.hsvD);
+    return true;  // not known
 }
 
 /// Integer limits [lo, hi] on an integer quantity v equivalent to r.min <= v <= r.max.
@@ -722,9 +788,9 @@ ColorTest::ColorTest(const TargetType& type, cv::Size size, int depth, int bitDe
 
 const cv::Rect& ColorTest::window() const { return plan_->window; }
 
-void ColorTest::row(const float* b, const float* g, const float* r, std::uint8_t* out, int n,
+bool ColorTest::row(const float* b, const float* g, const float* r, std::uint8_t* out, int n,
                     std::uint8_t* scratch) const {
-    plan_->row(b, g, r, out, n, *plan_, scratch);
+    return plan_->row(b, g, r, out, n, *plan_, scratch);
 }
 
 void splitRow(const std::uint8_t* bgr, float* b, float* g, float* r, int n) { splitRowKernel(bgr, b, g, r, n); }

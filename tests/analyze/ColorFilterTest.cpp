@@ -1,4 +1,7 @@
 #include <avatar/analyze/ImageColorFilter.h>
+#include "ColorFilterKernel.h"
+#include "KernelClones.h"
+
 #include <avatar/common/Error.h>
 
 #include <gtest/gtest.h>
@@ -10,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <random>
 #include <vector>
 
 namespace avatar {
@@ -673,4 +677,65 @@ TEST(ColorFilter, RowKernelAgreesWithTheDefinitionForEveryWidthAndEdgePixel) {
     }
 }
 
+}  // namespace avatar
+
+namespace avatar {
+namespace {
+
+// The AVX-512 ratio test first tries one limit alone on each 64 pixels and
+// skips them when all fail it, switching to another limit when the one it
+// tries lets through pixels the whole test rejects. Backgrounds that each
+// fail exactly one of the six limits, in stretches of random kinds and
+// lengths with passing pixels among them, must still give the definition's
+// verdicts; and row() says false only when no pixel passed (exactly so with
+// the AVX-512 kernel).
+TEST(ColorFilter, RowSkipsBackgroundByOneLimitAndSaysWhetherAnyPixelPassed) {
+    const TargetType type = ratioType({0.5, 2.0}, {0.5, 2.0}, {0.5, 2.0});
+    // (B, G, R): each fails one limit only; the last passes.
+    const std::array<cv::Vec3f, 7> kinds{{{600, 1000, 450},     // R/G below its minimum
+                                          {1500, 1000, 2200},   // R/G above its maximum
+                                          {1900, 1000, 900},    // R/B below
+                                          {700, 1000, 1500},    // R/B above
+                                          {450, 1000, 600},     // B/G below
+                                          {2100, 1000, 1900},   // B/G above
+                                          {1000, 1000, 1000}}};  // passes
+    const int n = 1280;
+    const detail::ColorTest test(type, cv::Size(n, 1), CV_16U, 16);
+    std::mt19937 rng(7);
+    std::vector<float> b(n), g(n), r(n);
+    std::vector<std::uint8_t> out(n), scratch(n);
+    int rowsWithout = 0, rowsWith = 0;
+    for (int row = 0; row < 400; ++row) {
+        std::vector<bool> expected(n);
+        const bool withTargets = row % 2 == 0;
+        for (int x = 0; x < n;) {
+            const int length = std::uniform_int_distribution<int>(1, 150)(rng);
+            int kind = std::uniform_int_distribution<int>(0, 5)(rng);
+            if (withTargets && std::uniform_int_distribution<int>(0, 7)(rng) == 0) kind = 6;
+            for (int k = 0; k < length && x < n; ++k, ++x) {
+                b[x] = kinds[kind][0];
+                g[x] = kinds[kind][1];
+                r[x] = kinds[kind][2];
+                expected[x] = kind == 6;
+            }
+        }
+        const bool some = test.row(b.data(), g.data(), r.data(), out.data(), n, scratch.data());
+        bool anyExpected = false;
+        for (int x = 0; x < n; ++x) {
+            ASSERT_EQ(out[x], expected[x] ? 255 : 0) << "row " << row << " x " << x;
+            anyExpected = anyExpected || expected[x];
+        }
+        if (!some) {
+            EXPECT_FALSE(anyExpected) << "row " << row;
+        }
+        if (detail::cpuRunsAvx512f()) {
+            EXPECT_EQ(some, anyExpected) << "row " << row;
+        }
+        (anyExpected ? rowsWith : rowsWithout)++;
+    }
+    EXPECT_GT(rowsWith, 150);
+    EXPECT_GT(rowsWithout, 150);
+}
+
+}  // namespace
 }  // namespace avatar
