@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <numeric>
 
 namespace avatar::detail {
 
@@ -365,6 +367,236 @@ std::optional<DiscPair> discPair(const cv::Matx33d& conicLeft, const cv::Matx33d
     out.centreLeft = *cl;
     out.centreRight = *cr;
     return out;
+}
+
+namespace {
+
+/// A circular cone about the unit @p axis: the rays whose unit vectors u
+/// have axis . u == cosAngle (a sphere's silhouette).
+struct Cone {
+    cv::Vec3d axis;
+    double cosAngle{1.0};
+};
+
+/// The cone through three unit rays: their tips lie in a plane whose normal
+/// is the axis.
+std::optional<Cone> coneThrough(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+    cv::Vec3d n = (b - a).cross(c - a);
+    const double length = cv::norm(n);
+    if (!(length > 1e-15)) return std::nullopt;
+    n *= 1.0 / length;
+    if (n[2] < 0.0) n = -n;  // in front of the camera
+    const double k = n.dot(a);
+    if (!(k > 0.0 && k < 1.0)) return std::nullopt;
+    return Cone{n, k};
+}
+
+/// The least-squares plane through the tips of @p rays[i] for i in @p use:
+/// the smallest principal axis of their scatter.
+std::optional<Cone> coneFit(const std::vector<cv::Vec3d>& rays, const std::vector<std::size_t>& use) {
+    if (use.size() < 3) return std::nullopt;
+    cv::Vec3d mean(0, 0, 0);
+    for (std::size_t i : use) mean += rays[i];
+    mean *= 1.0 / static_cast<double>(use.size());
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    for (std::size_t i : use) {
+        const cv::Vec3d d = rays[i] - mean;
+        scatter += d * d.t();
+    }
+    cv::Vec3d values;
+    cv::Matx33d vectors;
+    eigen3(scatter, values, vectors);
+    cv::Vec3d n(vectors(2, 0), vectors(2, 1), vectors(2, 2));
+    if (n[2] < 0.0) n = -n;
+    const double k = n.dot(mean);
+    if (!(k > 0.0 && k < 1.0)) return std::nullopt;
+    return Cone{n, k};
+}
+
+/// The indices in @p candidates of the rays within @p tolerance (rad, of the
+/// cone's half-angle) of @p cone: a band of cosines, so no arc cosine per ray.
+std::vector<std::size_t> coneInliers(const Cone& cone, const std::vector<cv::Vec3d>& rays,
+                                     const std::vector<std::size_t>& candidates, double tolerance) {
+    const double angle = std::acos(std::clamp(cone.cosAngle, -1.0, 1.0));
+    const double hi = std::cos(std::max(angle - tolerance, 0.0)), lo = std::cos(angle + tolerance);
+    std::vector<std::size_t> out;
+    for (std::size_t i : candidates) {
+        const double c = cone.axis.dot(rays[i]);
+        if (c >= lo && c <= hi) out.push_back(i);
+    }
+    return out;
+}
+
+/// A cone as an ellipse fit (ideal pixels, conic), with the RMS distance of
+/// @p rays[i], i in @p use, from it: a part is a sphere's image, so its
+/// ellipse is fixed by three parameters and a short arc of it is enough.
+EllipseFit coneEllipse(const Cone& cone, const std::vector<cv::Vec3d>& rays, const std::vector<std::size_t>& use,
+                       double f, double thresholdPx) {
+    EllipseFit fit;
+    const double c = cone.cosAngle, s = std::sqrt(std::max(0.0, 1.0 - c * c));
+    cv::Vec3d e1 = cone.axis.cross(std::abs(cone.axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0));
+    e1 *= 1.0 / cv::norm(e1);
+    const cv::Vec3d e2 = cone.axis.cross(e1);
+    std::vector<cv::Point2f> ideal;
+    for (int k = 0; k < 36; ++k) {
+        const double t = 2.0 * CV_PI * k / 36;
+        const cv::Vec3d r = cone.axis * c + (e1 * std::cos(t) + e2 * std::sin(t)) * s;
+        if (r[2] <= 0.0) return fit;  // reaches behind the camera
+        ideal.emplace_back(static_cast<float>(r[0] / r[2] * f), static_cast<float>(r[1] / r[2] * f));
+    }
+    const cv::RotatedRect e = cv::fitEllipseDirect(ideal);
+    if (!(e.size.width > 0.0f && e.size.height > 0.0f)) return fit;
+    fit.ok = true;
+    fit.ideal = e;
+    fit.conic = ellipseConic(e, f, {0.0, 0.0});
+    fit.thresholdPx = thresholdPx;
+    fit.points = fit.inliers = static_cast<int>(use.size());
+    const double angle = std::acos(std::clamp(c, -1.0, 1.0));
+    double sum = 0.0;
+    for (std::size_t i : use) {
+        const double d = (std::acos(std::clamp(cone.axis.dot(rays[i]), -1.0, 1.0)) - angle) * f;
+        sum += d * d;
+    }
+    fit.rmsPx = use.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(use.size()));
+    return fit;
+}
+
+/// The pixels of @p silhouette's region inside ellipse @p fit (ideal
+/// pixels) grown by @p growPx, as a mask of the region.
+cv::Mat partMask(const CameraIntrinsics& camera, const EllipseFit& fit, const Silhouette& silhouette, double growPx) {
+    cv::Mat inside = cv::Mat::zeros(silhouette.labels.size(), CV_8UC1);
+    const double f = camera.fc[0];
+    constexpr int kSides = 72;
+    std::vector<cv::Point> polygon;
+    polygon.reserve(kSides);
+    for (int k = 0; k < kSides; ++k) {
+        const cv::Point2d ideal = pointOn(fit.ideal, 2.0 * CV_PI * k / kSides, -growPx);
+        const cv::Point2d px = normalizedToPixel(camera, distortNormalized(camera, ideal * (1.0 / f)));
+        // fillPoly's fixed point: 1/16 px.
+        polygon.emplace_back(static_cast<int>(std::lround((px.x - silhouette.region.x) * 16.0)),
+                             static_cast<int>(std::lround((px.y - silhouette.region.y) * 16.0)));
+    }
+    cv::fillPoly(inside, std::vector<std::vector<cv::Point>>{polygon}, cv::Scalar(255), cv::LINE_8, 4);
+    return inside;
+}
+
+}  // namespace
+
+PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhouette, double minThresholdPx,
+                       double partThresholdPx, int maxParts, double minPartSided) {
+    PartsFit out;
+    const std::vector<OutlinePoint>& outline = silhouette.outline;
+    std::vector<cv::Vec3d> rays;
+    std::vector<const OutlinePoint*> source;
+    for (const OutlinePoint& p : outline)
+        if (p.kind == EdgeKind::Free || p.kind == EdgeKind::Contact) {
+            const cv::Point2d n = normalizePixel(camera, p.px);
+            const cv::Vec3d r(n.x, n.y, 1.0);
+            rays.push_back(r * (1.0 / cv::norm(r)));
+            source.push_back(&p);
+        }
+    out.points = static_cast<int>(rays.size());
+    // A pixel is about 1/f rad near the axis; the outline's rays are
+    // nearly parallel, so one tolerance serves the whole silhouette.
+    const double tolerance = partThresholdPx / camera.fc[0];
+    std::vector<std::size_t> left(rays.size());
+    std::iota(left.begin(), left.end(), std::size_t{0});
+    std::vector<Cone> cones;
+    // A fixed seed: the same outline always gives the same parts.
+    cv::RNG rng(0x5eedu);
+    constexpr std::size_t kMinPartPoints = 6;
+    std::vector<std::size_t> refused;  // points of a consensus that was not a part
+    for (int attempt = 0; attempt < maxParts + 2 && static_cast<int>(cones.size()) < maxParts &&
+                          left.size() >= kMinPartPoints;
+         ++attempt) {
+        std::vector<std::size_t> best;
+        const double n = static_cast<double>(left.size());
+        int needed = 400;
+        for (int it = 0; it < needed; ++it) {
+            const std::size_t a = left[static_cast<std::size_t>(rng.uniform(0, static_cast<int>(left.size())))];
+            const std::size_t b = left[static_cast<std::size_t>(rng.uniform(0, static_cast<int>(left.size())))];
+            const std::size_t c = left[static_cast<std::size_t>(rng.uniform(0, static_cast<int>(left.size())))];
+            if (a == b || b == c || a == c) continue;
+            const auto cone = coneThrough(rays[a], rays[b], rays[c]);
+            if (!cone) continue;
+            std::vector<std::size_t> in = coneInliers(*cone, rays, left, tolerance);
+            if (in.size() > best.size()) {
+                best = std::move(in);
+                // Enough samples to draw three of the best's points at once
+                // with 99.9 % probability.
+                const double w = static_cast<double>(best.size()) / n;
+                const double miss = 1.0 - w * w * w;
+                if (miss <= 1e-9) needed = it + 1;
+                else needed = std::min(400, static_cast<int>(std::ceil(std::log(1e-3) / std::log(miss))));
+            }
+        }
+        if (best.size() < kMinPartPoints) break;
+        std::optional<Cone> cone;
+        for (int round = 0; round < 3; ++round) {
+            const auto refined = coneFit(rays, best);
+            if (!refined) break;
+            cone = refined;
+            std::vector<std::size_t> in = coneInliers(*cone, rays, left, tolerance);
+            if (in.size() < kMinPartPoints || in == best) break;
+            best = std::move(in);
+        }
+        if (!cone) break;
+        std::vector<std::size_t> rest;
+        std::set_difference(left.begin(), left.end(), best.begin(), best.end(), std::back_inserter(rest));
+        left = std::move(rest);
+        // A part is a piece of the object: the silhouette lies inside its
+        // arc, nothing of it beyond. Points along a neighbour in front of
+        // it follow the neighbour's circle, with the silhouette beyond it.
+        // (Only the outer side is asked: the filter may lose the dim pixels
+        // just inside a shaded edge.)
+        EllipseFit part = coneEllipse(*cone, rays, best, camera.fc[0], std::max(minThresholdPx, partThresholdPx));
+        if (!part.ok) break;
+        if (!silhouette.labels.empty()) {
+            const cv::Point2d centre = normalizedToPixel(
+                camera, distortNormalized(camera, cv::Point2d(part.ideal.center) * (1.0 / camera.fc[0])));
+            const auto own = [&](const cv::Point2d& px) {
+                const int x = static_cast<int>(std::lround(px.x)) - silhouette.region.x;
+                const int y = static_cast<int>(std::lround(px.y)) - silhouette.region.y;
+                return x >= 0 && y >= 0 && x < silhouette.labels.cols && y < silhouette.labels.rows &&
+                       silhouette.labels.at<std::uint8_t>(y, x) == 1;  // Silhouette's kFeature
+            };
+            std::size_t sided = 0;
+            for (std::size_t i : best) {
+                const cv::Point2d p = source[i]->px, towards = centre - p;
+                const double length = cv::norm(towards);
+                if (!(length > 0.0)) continue;
+                sided += !own(p - towards * (1.5 / length));
+            }
+            if (static_cast<double>(sided) < minPartSided * static_cast<double>(best.size())) {
+                refused.insert(refused.end(), best.begin(), best.end());
+                continue;
+            }
+        }
+        cones.push_back(*cone);
+        std::vector<OutlinePoint> points;
+        for (std::size_t i : best) points.push_back(*source[i]);
+        out.parts.push_back(part);
+        out.outlines.push_back(std::move(points));
+    }
+    left.insert(left.end(), refused.begin(), refused.end());
+    for (std::size_t i : left) {
+        bool in = false;
+        for (const Cone& c : cones) in = in || c.axis.dot(rays[i]) > c.cosAngle;
+        ++(in ? out.inside : out.outside);
+    }
+    return out;
+}
+
+double shareOutsideParts(const CameraIntrinsics& camera, const PartsFit& parts, const Silhouette& silhouette,
+                         double growPx) {
+    if (silhouette.labels.empty()) return 0.0;
+    const cv::Mat own = silhouette.labels == 1;  // Silhouette's kFeature
+    const int total = cv::countNonZero(own);
+    if (total == 0) return 0.0;
+    cv::Mat inside = cv::Mat::zeros(own.size(), CV_8UC1);
+    for (const EllipseFit& part : parts.parts)
+        if (part.ok) inside |= partMask(camera, part, silhouette, growPx);
+    return static_cast<double>(cv::countNonZero(own & ~inside)) / total;
 }
 
 }  // namespace avatar::detail

@@ -96,6 +96,38 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
 /// two (the waist on either side).
 int freeConcavities(const Silhouette& silhouette, double minDepthPx);
 
+/// A composite silhouette (the duck: a body and a head sphere) as the
+/// union of round parts, fitted to its free and contact outline points (a
+/// part in front of a neighbour shows its outline there too). A sphere's outline is the image of a circular cone
+/// about the ray to its centre: the unit rays of its outline points are all
+/// equally far from that axis, so they lie in one plane whose normal is the
+/// axis. Each part is found by consensus over the points no larger part
+/// explains (three rays give a plane; the largest set within
+/// @p partThresholdPx of one cone wins), its cone refined by a plane fit.
+struct PartsFit {
+    /// The parts, the one with most outline points first: each its cone's
+    /// ellipse, with the RMS of its points about the cone (no covariance).
+    std::vector<EllipseFit> parts;
+    /// Each part's own outline points, free and contact (what its cone was fitted to).
+    std::vector<std::vector<OutlinePoint>> outlines;
+    int points{0};   ///< free and contact outline points
+    int outside{0};  ///< points no part explains that lie outside every part: another object
+    int inside{0};   ///< points no part explains that lie inside a part: a bite out of it
+};
+/// A consensus is a part only when the silhouette lies inside its arc: at
+/// @p minPartSided of its points, the pixel 1.5 px further from its centre
+/// is not @p silhouette's own (points along a neighbour in front of the
+/// object follow the neighbour's circle, with the silhouette beyond it).
+PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhouette, double minThresholdPx,
+                       double partThresholdPx, int maxParts, double minPartSided);
+
+/// The share of @p silhouette's own pixels (its labels) that lie outside
+/// every part of @p parts that has an ellipse, each part grown by
+/// @p growPx: what the round parts do not explain (a beak; a neighbour of
+/// its colour run into it; the corners of a box).
+double shareOutsideParts(const CameraIntrinsics& camera, const PartsFit& parts, const Silhouette& silhouette,
+                         double growPx);
+
 /// The sphere interpretation of an ellipse.
 struct SphereCone {
     cv::Point2d axis;        ///< normalised direction (x/z, y/z) of the centre

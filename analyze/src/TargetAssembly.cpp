@@ -84,8 +84,10 @@ Feature regionFeature(const cv::Mat& mask, const cv::Rect& within) {
 /// A view's measurements and the verdict on its completeness.
 struct ViewVerdict {
     Silhouette silhouette;
-    EllipseFit fit;
-    RoundCompleteness round;
+    EllipseFit fit;          ///< a round model's ellipse; a composite's largest part
+    RoundCompleteness round; ///< of that ellipse
+    PartsFit parts;          ///< a composite's round parts
+    double strayShare{0.0};  ///< of a composite's pixels, outside its parts
     bool roundFits{false};  ///< a complete ellipse
     /// The ellipse is known well enough to locate the target by its model,
     /// complete or not: most of it is supported and the rest follows it.
@@ -454,6 +456,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const bool coverage = config_.analysis.centroid == CentroidMode::Coverage;
     const TargetShape declared = type.shape;
     const bool round = declared == TargetShape::Sphere || declared == TargetShape::Disc;
+    const bool composite = declared == TargetShape::Composite;
     if (left.typeShare < left.minShare || right.typeShare < right.minShare || left.type != right.type ||
         conflict)
         target.flags |= kTargetAmbiguous;
@@ -507,6 +510,61 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             if (v.merged) v.hidden = false;  // what it is, not what hides it
             v.roundFits = !v.cut && !v.hidden && !v.merged;
             v.modelUsable = !v.merged && v.fit.rmsPx <= limits_.maxFitRmsPx && 2 * v.round.supported >= v.round.bins;
+        } else if (composite) {
+            // Each round part is checked as a round target is, except that
+            // its outline may run inside the other part (present bins).
+            v.parts = fitRoundParts(camera, sil, limits_.minFitThresholdPx, limits_.partThresholdPx,
+                                    limits_.compositeParts, limits_.minPartSided);
+            // The body: the part most of the outline follows (a short arc
+            // of another part may fit a larger circle as well as its own).
+            const int body = !v.parts.parts.empty() && v.parts.parts[0].ok ? 0 : -1;
+            if (body < 0) {
+                if (sil.imageEdgePoints + sil.windowEdgePoints > sil.contactPoints) v.cut = true;
+                else v.hidden = true;
+                continue;
+            }
+            const int tolerance = limits_.maxUnsupportedBins;
+            bool partHidden = false;
+            // Any contact is judged by depth: a part's arc may pass behind
+            // a neighbour where no bin of its circle shows it.
+            v.contact = sil.contactPoints > 0;
+            for (std::size_t i = 0; i < v.parts.parts.size(); ++i) {
+                const EllipseFit& p = v.parts.parts[i];
+                if (!p.ok) continue;  // a part that barely shows: its points are explained
+                const RoundCompleteness c = roundCompleteness(
+                    camera, p, v.parts.outlines[i],
+                    [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); });
+                v.cut = v.cut || c.cut > tolerance;
+                v.contact = v.contact || c.hidden + c.seam > tolerance;
+                if (static_cast<int>(i) == body) {
+                    partHidden = partHidden || c.missing > tolerance || p.rmsPx > limits_.maxFitRmsPx;
+                } else if (c.supported >= limits_.minPartCoverage * c.bins) {
+                    // Another part (the head) is checked only when enough
+                    // of its arc shows to fix its circle; a small part of
+                    // its own may cover some of it (the beak).
+                    partHidden = partHidden || c.missing > limits_.maxPartMissing * c.bins;
+                }
+                if (static_cast<int>(i) == body) v.round = c;
+                if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+                    log.debugStream() << "  part " << i << ": " << v.parts.outlines[i].size() << " points, ellipse "
+                                      << p.ideal.size << ", rms " << p.rmsPx << ", inliers " << p.inliers
+                                      << ", bins " << c.bins << " supported " << c.supported << " present "
+                                      << c.present << " missing " << c.missing << " at-target " << c.hidden;
+            }
+            // The body is placed as a sphere is, by a free ellipse fit of
+            // its own points (the cone's anisotropy then checks it).
+            v.fit = fitEllipse(camera, v.parts.outlines[static_cast<std::size_t>(body)], limits_.minFitThresholdPx);
+            const bool bodyFits = v.fit.ok;
+            if (!bodyFits) v.fit = v.parts.parts[static_cast<std::size_t>(body)];
+            // Outline the parts do not explain: outside them, another
+            // object (a neighbour of its colour) or not this shape at all
+            // (a box of its colour); inside them, a bite out of it.
+            v.strayShare = shareOutsideParts(camera, v.parts, sil, limits_.partThresholdPx);
+            v.merged = v.strayShare > limits_.maxStrayShare;
+            v.hidden = !v.merged && partHidden;
+            v.roundFits = !v.cut && !v.hidden && !v.merged;
+            v.modelUsable = bodyFits && !v.merged && v.fit.rmsPx <= limits_.maxFitRmsPx &&
+                            2 * v.round.supported >= v.round.bins;
         } else {
             // Without a model nothing tells a silhouette that ends at an
             // edge from one cut by it (the filter often loses the last dim
@@ -557,10 +615,23 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         else if (sphere) { point = sphere; pl = sl; pr = sr; model = ShapeModel::Sphere; }
         normalised = point.has_value();
     }
-    if (!round) {
-        // Views that touch an edge: cut unless the other view shows the
-        // whole and the two agree in size (checked below).
-        if (declared == TargetShape::Composite) model = ShapeModel::Composite;
+    // A composite is placed by its largest round part (the duck's body),
+    // as a sphere is: its cone axes.
+    if (composite && views[0].modelUsable && views[1].modelUsable) {
+        const auto cl = sphereCone(views[0].fit.conic), cr = sphereCone(views[1].fit.conic);
+        if (cl && cr && cl->anisotropy <= limits_.maxSphereAnisotropy && cr->anisotropy <= limits_.maxSphereAnisotropy) {
+            if (const auto body = calculator_.triangulateNormalized(cl->axis, cr->axis)) {
+                const double rl = cv::norm(body->leftMm) * std::sin(cl->halfAngle);
+                const double rr = cv::norm(body->rightMm) * std::sin(cr->halfAngle);
+                if (std::abs(rl - rr) <= limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr)) {
+                    point = body;
+                    pl = cl->axis;
+                    pr = cr->axis;
+                    model = ShapeModel::Composite;
+                    normalised = true;
+                }
+            }
+        }
     }
     for (int s = 0; s < 2; ++s) {
         const ViewVerdict& v = views[s];
@@ -581,10 +652,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         point = calculator_.triangulate(cl, cr);
         pl = cl;
         pr = cr;
-        if (model != ShapeModel::Composite) model = ShapeModel::None;
+        model = ShapeModel::None;
     }
     target.model = model;
-    if (model == ShapeModel::Sphere || model == ShapeModel::Disc) target.flags |= kTargetShapeCorrected;
+    if (model != ShapeModel::None) target.flags |= kTargetShapeCorrected;
     target.centroidLeftPx = normalised ? toPixel(config_.stereo.left, pl) : cl;
     target.centroidRightPx = normalised ? toPixel(config_.stereo.right, pr) : cr;
     target.areaLeftPx = views[0].silhouette.area > 0.0 ? views[0].silhouette.area : fl.area;
@@ -619,7 +690,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // times the model's factor for the correlation of neighbouring
         // points' noise.
         std::optional<cv::Matx22d> ml, mr;
-        if (model == ShapeModel::Sphere) {
+        if (model == ShapeModel::Sphere || model == ShapeModel::Composite) {
             const auto axis = [](const cv::Matx33d& conic) -> std::optional<cv::Point2d> {
                 const auto cone = sphereCone(conic);
                 if (!cone) return std::nullopt;
@@ -636,7 +707,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         }
         const double fl2 = config_.stereo.left.fc[0] * config_.stereo.left.fc[0];
         const double fr2 = config_.stereo.right.fc[0] * config_.stereo.right.fc[0];
-        const double k = model == ShapeModel::Sphere ? limits_.sphereFitCorrelation : limits_.discFitCorrelation;
+        const double k = model == ShapeModel::Disc ? limits_.discFitCorrelation : limits_.sphereFitCorrelation;
         cov = calculator_.covarianceNormalized(pl, pr, ml ? *ml * k : covL * (1.0 / fl2),
                                                mr ? *mr * k : covR * (1.0 / fr2));
     } else {
@@ -738,7 +809,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             stream << (s == 0 ? "; left" : "; right") << ": points free " << sil.freePoints << " edge "
                    << sil.imageEdgePoints + sil.windowEdgePoints << " contact " << sil.contactPoints << " fragment "
                    << sil.fragmentPoints;
-            if (round)
+            if (composite)
+                stream << ", parts " << v.parts.parts.size() << " of " << v.parts.points << " points, stray outside "
+                       << v.parts.outside << " inside " << v.parts.inside << ", share outside " << v.strayShare;
+            if (round || composite)
                 stream << ", fit " << (v.fit.ok ? "" : "failed ") << "rms " << v.fit.rmsPx << " bins "
                        << v.round.bins << " supported " << v.round.supported << " present " << v.round.present
                        << " cut " << v.round.cut << " at-target " << v.round.hidden << " seam " << v.round.seam << " missing "

@@ -80,6 +80,20 @@ struct CompletenessLimits {
     /// colour a few pixels inside, which neighbouring edge points share.
     double sphereFitCorrelation{38.0};
     double discFitCorrelation{20.0};
+    /// A composite type's round parts (fitRoundParts()): at most this many
+    /// (the duck's body and head), each point within partThresholdPx of its
+    /// part's cone.
+    int compositeParts{2};
+    double partThresholdPx{1.0};
+    double minPartSided{0.8};  ///< of a part's points with the silhouette on the inside of its arc (fitRoundParts())
+    /// Largest share of a composite's pixels its parts may leave
+    /// unexplained (a duck's beak that the filter passes in part).
+    double maxStrayShare{0.04};
+    /// A composite's other parts (the head) are checked when their outline
+    /// covers this share of their circle, and may then miss this share of
+    /// it (what a beak covers).
+    double minPartCoverage{0.25};
+    double maxPartMissing{0.15};
 };
 
 /// Which of @p types' filters (their search windows are ignored) pass the

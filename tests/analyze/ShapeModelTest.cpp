@@ -468,6 +468,51 @@ TEST(Completeness, AColourWithinTheMarginOfAnotherFilterIsNearIt) {
     EXPECT_EQ(near, std::vector<bool>({false, false}));
 }
 
+// The composite model (the duck: a body and a head sphere). Its outline is
+// explained by the round parts it fits: a duck is whole and placed by its
+// body's cone axes (its centre; the centroids, pulled towards the head, are
+// millimetres off); a box of the duck's colour leaves corners no round part
+// explains, and two touching ducks one duck's worth of outline: neither is
+// whole, without any size range.
+TEST(ShapeModel, ADuckIsPlacedByItsBodyAndABoxOrTwoDucksOfItsColourAreNotWhole) {
+    const double r = 35.0;
+    render::Scene scene = emptyLab();
+    auto duck = target("duck", render::Shape::Duck, {-150, 20, 800}, r);
+    duck.om = {0.0, 0.0, 0.3};  // seen from the side, its head raised a little
+    auto box = target("box", render::Shape::Box, {160, -30, 850}, r);
+    box.halfSizeMm = {32, 24, 20};
+    box.om = {0.4, 0.6, 0.2};
+    scene.targets = {duck, box};
+    AvatarConfig cfg = config(TargetShape::Composite);
+    const Outcome o = run(scene, cfg);
+    const auto d = o.of("duck");
+    ASSERT_TRUE(d);
+    EXPECT_TRUE(d->flags & kTargetWhole) << flagsOf(d);
+    EXPECT_EQ(d->model, ShapeModel::Composite);
+    EXPECT_TRUE(d->flags & kTargetShapeCorrected) << flagsOf(d);
+    EXPECT_LT(o.errorMm("duck"), 0.5);
+    // The same duck without a model: its centroids.
+    const Outcome none = run(scene, config(TargetShape::None));
+    EXPECT_GT(none.errorMm("duck"), 3.0 * std::max(o.errorMm("duck"), 0.3));
+    const auto b = o.of("box");
+    ASSERT_TRUE(b) << "the box passes the duck's filter";
+    EXPECT_TRUE((b->flags & kTargetStereo) && !(b->flags & kTargetWhole)) << flagsOf(b);
+    EXPECT_EQ(b->model, ShapeModel::None);
+    EXPECT_TRUE(none.of("box") && (none.of("box")->flags & kTargetWhole))
+        << "without a model nothing tells the box from a target";
+
+    render::Scene two = emptyLab();
+    two.targets = {duck, target("neighbour", render::Shape::Duck, duck.centreMm + cv::Vec3d(1.7 * r, 0, 0), r)};
+    two.targets[1].om = duck.om;
+    const Outcome pair = run(two, cfg);
+    ASSERT_EQ(pair.stereoCount(), 1) << "the two ducks must make one feature";
+    for (const VisionTarget& v : pair.result.targets) {
+        if (v.flags & kTargetStereo) {
+            EXPECT_TRUE((v.flags & kTargetMerged) && !(v.flags & kTargetWhole)) << targetFlagsText(v.flags);
+        }
+    }
+}
+
 // The type's physical size (sizeMm): two ducks of one colour side by side
 // are one feature whose views agree with each other, so nothing else tells
 // them from one duck; the size does. Within the range a duck stays whole,
