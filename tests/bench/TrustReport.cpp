@@ -73,6 +73,26 @@ const std::vector<render::TargetColour> kColours{{"yellow", {0.92, 0.72, 0.04}},
                                                  {"green", {0.12, 0.6, 0.15}},
                                                  {"magenta", {0.7, 0.12, 0.55}}};
 
+/// The colour of kColours a target of albedo @p albedo looks like to a
+/// ratio filter: the nearest in log R/G and log B/G. A mix of two colours
+/// can look like a third (red and yellow make orange), and a mix nearer one
+/// colour in albedo may be nearer the other in ratio.
+std::string lookedLikeColour(const render::Rgb& albedo) {
+    const auto chroma = [](const render::Rgb& c) {
+        return cv::Point2d(std::log(c[0] / c[1]), std::log(c[2] / c[1]));
+    };
+    std::string best;
+    double bestD = 1e300;
+    for (const render::TargetColour& c : kColours) {
+        const double d = cv::norm(chroma(albedo) - chroma(c.albedo));
+        if (d < bestD) {
+            bestD = d;
+            best = c.name;
+        }
+    }
+    return best;
+}
+
 std::vector<render::Scene> scenes(int count, std::uint64_t seed, const StereoSystemConfig& stereo,
                                   const render::SensorFormat& sensor) {
     render::SceneSetSpec spec;
@@ -346,7 +366,12 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
             fail(t.left.cut || t.right.cut ? "cut" : "hidden", what);
             return;
         }
-        if (v.type != t.type) {
+        // A colour between two filters' is the colour it looks like.
+        std::string type = t.type;
+        if (t.name.rfind("mix_", 0) == 0)
+            for (const auto& spec : scene.targets)
+                if (spec.name == t.name) type = lookedLikeColour(spec.albedo);
+        if (v.type != type) {
             ++tally.wholeWrongType;
             fail("wrong type", t.name + " as " + v.type);
             return;
