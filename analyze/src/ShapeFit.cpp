@@ -12,21 +12,43 @@ namespace avatar::detail {
 
 namespace {
 
-/// Signed distance of @p p from ellipse @p e along the ray from its centre
-/// (positive outside), and the point's angle parameter.
+/// Signed distance of a point from an ellipse along the ray from its centre
+/// (positive outside), and the point's angle parameter. The ellipse's
+/// rotation is taken once, not per point.
 struct EllipsePosition {
     double distance;
     double angle;
 };
-EllipsePosition positionOn(const cv::RotatedRect& e, const cv::Point2f& p) {
-    const double th = e.angle * CV_PI / 180.0, ct = std::cos(th), st = std::sin(th);
-    const double a = 0.5 * e.size.width, b = 0.5 * e.size.height;
-    const double dx = p.x - e.center.x, dy = p.y - e.center.y;
-    const double u = ct * dx + st * dy, v = -st * dx + ct * dy;
-    const double rho = std::hypot(u / a, v / b);
-    const double r = std::hypot(dx, dy);
-    return {rho > 0.0 ? r * (1.0 - 1.0 / rho) : -std::min(a, b), std::atan2(v / b, u / a)};
-}
+class EllipseFrame {
+public:
+    explicit EllipseFrame(const cv::RotatedRect& e)
+        : cx_(e.center.x), cy_(e.center.y), a_(0.5 * e.size.width), b_(0.5 * e.size.height) {
+        const double th = e.angle * CV_PI / 180.0;
+        ct_ = std::cos(th);
+        st_ = std::sin(th);
+    }
+    double distance(const cv::Point2f& p) const {
+        double u, v;
+        const double r = local(p, u, v);
+        const double rho = std::hypot(u / a_, v / b_);
+        return rho > 0.0 ? r * (1.0 - 1.0 / rho) : -std::min(a_, b_);
+    }
+    EllipsePosition position(const cv::Point2f& p) const {
+        double u, v;
+        local(p, u, v);
+        return {distance(p), std::atan2(v / b_, u / a_)};
+    }
+
+private:
+    /// The point in the ellipse's axes (u, v) and its distance from the centre.
+    double local(const cv::Point2f& p, double& u, double& v) const {
+        const double dx = p.x - cx_, dy = p.y - cy_;
+        u = ct_ * dx + st_ * dy;
+        v = -st_ * dx + ct_ * dy;
+        return std::hypot(dx, dy);
+    }
+    double cx_, cy_, a_, b_, ct_{1.0}, st_{0.0};
+};
 
 /// The point of @p e at angle parameter @p t, moved @p inwardPx towards the centre.
 cv::Point2d pointOn(const cv::RotatedRect& e, double t, double inwardPx) {
@@ -84,8 +106,9 @@ cv::Matx<double, 5, 5> parameterCovariance(const cv::RotatedRect& e, const std::
     const double a = 0.5 * e.size.width, b = 0.5 * e.size.height;
     const cv::Vec2d u(ct, st), v(-st, ct);
     cv::Matx<double, 5, 5> information = cv::Matx<double, 5, 5>::zeros();
+    const EllipseFrame frame(e);
     for (std::size_t i = 0; i < points.size(); ++i) {
-        const double t = positionOn(e, points[i]).angle;
+        const double t = frame.position(points[i]).angle;
         const double c = std::cos(t), s = std::sin(t);
         cv::Vec2d n = u * (c / a) + v * (s / b);  // outward normal at the ellipse point
         n *= 1.0 / cv::norm(n);
@@ -159,8 +182,9 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
             return fit;
         std::vector<double> absolute;
         absolute.reserve(ideal.size());
+        const EllipseFrame frame(e);
         for (std::size_t i = 0; i < ideal.size(); ++i) {
-            r[i] = positionOn(e, ideal[i]).distance;
+            r[i] = frame.distance(ideal[i]);
             absolute.push_back(std::abs(r[i]));
         }
         std::nth_element(absolute.begin(), absolute.begin() + static_cast<std::ptrdiff_t>(absolute.size() / 2),
@@ -178,8 +202,9 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
     double sum = 0.0;
     std::vector<cv::Point2f> inliers;
     std::vector<double> inlierVariances;
+    const EllipseFrame frame(e);
     for (std::size_t i = 0; i < ideal.size(); ++i) {
-        r[i] = positionOn(e, ideal[i]).distance;
+        r[i] = frame.distance(ideal[i]);
         if (std::abs(r[i]) <= threshold) {
             ++fit.inliers;
             sum += r[i] * r[i];
@@ -214,11 +239,12 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         int k = static_cast<int>(std::floor((t + CV_PI) / (2.0 * CV_PI) * c.bins));
         return std::clamp(k, 0, c.bins - 1);
     };
+    const EllipseFrame frame(fit.ideal);
     for (const OutlinePoint& p : outline) {
         if (p.kind != EdgeKind::Free) continue;
         const cv::Point2d n = normalizePixel(camera, p.px);
         const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
-        const EllipsePosition pos = positionOn(fit.ideal, ideal);
+        const EllipsePosition pos = frame.position(ideal);
         if (std::abs(pos.distance) <= fit.thresholdPx) supported[static_cast<std::size_t>(binOf(pos.angle))] = true;
     }
     const auto toPixel = [&](const cv::Point2d& idealPx) {
@@ -433,28 +459,36 @@ std::vector<std::size_t> coneInliers(const Cone& cone, const std::vector<cv::Vec
 EllipseFit coneEllipse(const Cone& cone, const std::vector<cv::Vec3d>& rays, const std::vector<std::size_t>& use,
                        double f, double thresholdPx) {
     EllipseFit fit;
-    const double c = cone.cosAngle, s = std::sqrt(std::max(0.0, 1.0 - c * c));
-    cv::Vec3d e1 = cone.axis.cross(std::abs(cone.axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0));
-    e1 *= 1.0 / cv::norm(e1);
-    const cv::Vec3d e2 = cone.axis.cross(e1);
-    std::vector<cv::Point2f> ideal;
-    for (int k = 0; k < 36; ++k) {
-        const double t = 2.0 * CV_PI * k / 36;
-        const cv::Vec3d r = cone.axis * c + (e1 * std::cos(t) + e2 * std::sin(t)) * s;
-        if (r[2] <= 0.0) return fit;  // reaches behind the camera
-        ideal.emplace_back(static_cast<float>(r[0] / r[2] * f), static_cast<float>(r[1] / r[2] * f));
-    }
-    const cv::RotatedRect e = cv::fitEllipseDirect(ideal);
-    if (!(e.size.width > 0.0f && e.size.height > 0.0f)) return fit;
+    const double c = cone.cosAngle;
+    // The cone (axis . x)^2 = c^2 |x|^2 for x = (u, v, 1) is the conic
+    // Q = axis axis^T - c^2 I; an ellipse when the axis is more than the
+    // half-angle in front of the image plane.
+    const cv::Vec3d& n = cone.axis;
+    const cv::Matx33d q = n * n.t() - cv::Matx33d::eye() * (c * c);
+    const cv::Matx22d a2(q(0, 0), q(0, 1), q(1, 0), q(1, 1));
+    const double det = cv::determinant(a2);
+    if (!(det > 0.0)) return fit;
+    const cv::Vec2d centre = -(a2.inv() * cv::Vec2d(q(0, 2), q(1, 2)));
+    const double k = -(q(2, 2) + q(0, 2) * centre[0] + q(1, 2) * centre[1]);
+    // (x - centre)^T A (x - centre) = k: semi-axis sqrt(k / l) along each
+    // eigenvector of A; the width along the first's direction.
+    const double tr = a2(0, 0) + a2(1, 1), disc = std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+    const double l1 = 0.5 * tr - disc, l2 = 0.5 * tr + disc;
+    if (!(l1 * k > 0.0 && l2 * k > 0.0)) return fit;
+    const double angle = std::abs(a2(0, 1)) > 1e-300 ? std::atan2(l1 - a2(0, 0), a2(0, 1))
+                                                     : (a2(0, 0) <= a2(1, 1) ? 0.0 : CV_PI / 2);
+    const double axis1 = std::sqrt(k / l1) * f, axis2 = std::sqrt(k / l2) * f;
     fit.ok = true;
-    fit.ideal = e;
-    fit.conic = ellipseConic(e, f, {0.0, 0.0});
+    fit.ideal = cv::RotatedRect(cv::Point2f(static_cast<float>(centre[0] * f), static_cast<float>(centre[1] * f)),
+                                cv::Size2f(static_cast<float>(2.0 * axis1), static_cast<float>(2.0 * axis2)),
+                                static_cast<float>(angle * 180.0 / CV_PI));
+    fit.conic = q;
     fit.thresholdPx = thresholdPx;
     fit.points = fit.inliers = static_cast<int>(use.size());
-    const double angle = std::acos(std::clamp(c, -1.0, 1.0));
+    const double halfAngle = std::acos(std::clamp(c, -1.0, 1.0));
     double sum = 0.0;
     for (std::size_t i : use) {
-        const double d = (std::acos(std::clamp(cone.axis.dot(rays[i]), -1.0, 1.0)) - angle) * f;
+        const double d = (std::acos(std::clamp(cone.axis.dot(rays[i]), -1.0, 1.0)) - halfAngle) * f;
         sum += d * d;
     }
     fit.rmsPx = use.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(use.size()));
@@ -509,8 +543,15 @@ PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhoue
     for (int attempt = 0; attempt < maxParts + 2 && static_cast<int>(cones.size()) < maxParts &&
                           left.size() >= kMinPartPoints;
          ++attempt) {
+        // Candidates are scored on at most 128 of the points (a long
+        // outline has far more than a consensus needs); the best one's
+        // inliers are then taken from all of them.
+        const std::size_t stride = std::max<std::size_t>(1, (left.size() + 127) / 128);
+        std::vector<std::size_t> sample;
+        for (std::size_t i = 0; i < left.size(); i += stride) sample.push_back(left[i]);
         std::vector<std::size_t> best;
-        const double n = static_cast<double>(left.size());
+        std::optional<Cone> bestCone;
+        const double n = static_cast<double>(sample.size());
         int needed = 400;
         for (int it = 0; it < needed; ++it) {
             const std::size_t a = left[static_cast<std::size_t>(rng.uniform(0, static_cast<int>(left.size())))];
@@ -519,9 +560,10 @@ PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhoue
             if (a == b || b == c || a == c) continue;
             const auto cone = coneThrough(rays[a], rays[b], rays[c]);
             if (!cone) continue;
-            std::vector<std::size_t> in = coneInliers(*cone, rays, left, tolerance);
+            std::vector<std::size_t> in = coneInliers(*cone, rays, sample, tolerance);
             if (in.size() > best.size()) {
                 best = std::move(in);
+                bestCone = cone;
                 // Enough samples to draw three of the best's points at once
                 // with 99.9 % probability.
                 const double w = static_cast<double>(best.size()) / n;
@@ -530,6 +572,8 @@ PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhoue
                 else needed = std::min(400, static_cast<int>(std::ceil(std::log(1e-3) / std::log(miss))));
             }
         }
+        if (!bestCone) break;
+        best = coneInliers(*bestCone, rays, left, tolerance);
         if (best.size() < kMinPartPoints) break;
         std::optional<Cone> cone;
         for (int round = 0; round < 3; ++round) {

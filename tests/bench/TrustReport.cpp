@@ -656,7 +656,7 @@ int main(int argc, char** argv) {
         row("spheres and discs", pick(tally.hits, isRound));
         row("spheres", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Sphere; }));
         row("discs", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Disc; }));
-        row("ducks (composite, centroid)", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Duck; }));
+        row("ducks (composite, body)", pick(tally.hits, [](const Hit& h) { return h.record.shape == render::Shape::Duck; }));
         for (double lo = 500.0; lo < 2500.0; lo += 500.0)
             row("round, " + fmt(lo / 1000.0, 1) + "-" + fmt((lo + 500.0) / 1000.0, 1) + " m", inRange(tally.hits, lo, lo + 500.0, true));
         row("round, 0.5-1.5 m", inRange(tally.hits, 500.0, 1500.0, true));

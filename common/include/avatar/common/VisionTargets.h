@@ -51,7 +51,7 @@ enum class ShapeModel : std::uint8_t {
     None = 0,      ///< no model: the silhouette centroids are triangulated
     Sphere = 1,    ///< the silhouette-cone axis of each image
     Disc = 2,      ///< the image of the centre of a flat circle, from its fitted ellipse
-    Composite = 3  ///< a rigid object of several parts (the duck): centroids, views checked for consistency
+    Composite = 3  ///< a rigid object of round parts (the duck): the silhouette-cone axes of its largest part
 };
 
 /// "none", "sphere", "disc", "composite".

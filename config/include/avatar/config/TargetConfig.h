@@ -54,8 +54,10 @@ struct HsvRanges {
 ///   cone); the cone axes are triangulated, which removes the centroid's bias.
 /// - Disc: a flat circle; each silhouette must fit an ellipse, and the image
 ///   of the circle's centre (not the ellipse's centre) is triangulated.
-/// - Composite: a rigid object of several parts (the duck); the centroids are
-///   triangulated and the two views checked for consistency.
+/// - Composite: a rigid object of round parts (the duck: a body and a head
+///   sphere); each silhouette must be explained by at most two parts, the
+///   largest checked as a sphere's, and the largest part's cone axes are
+///   triangulated (the duck's centre is its body's).
 enum class TargetShape { None, Sphere, Disc, Composite };
 
 /// RGB-ratio ranges for the pixels of one brightness band (thesis 3.3.2:
