@@ -108,6 +108,34 @@ cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalise
 
 }  // namespace
 
+ImageScale imageScale(const CameraIntrinsics& camera, const cv::Point3d& pointMm) {
+    ImageScale s;
+    s.area = camera.fc[0] * camera.fc[1];
+    s.width = camera.fc[0];
+    s.height = camera.fc[1];
+    if (!(pointMm.z > 0.0)) return s;
+    const cv::Point2d n(pointMm.x / pointMm.z, pointMm.y / pointMm.z);
+    const double r2 = n.dot(n), cosTheta = 1.0 / std::sqrt(1.0 + r2);
+    // The sphere's image in undistorted normalised coordinates: an ellipse
+    // with semi-axes 1/cos^2 (radial) and 1/cos (across), per radian.
+    const double phi = r2 > 0.0 ? std::atan2(n.y, n.x) : 0.0;
+    const cv::Matx22d shape = cv::Matx22d(std::cos(phi), -std::sin(phi), std::sin(phi), std::cos(phi)) *
+                              cv::Matx22d(1.0 / (cosTheta * cosTheta), 0.0, 0.0, 1.0 / cosTheta);
+    // Then the lens (the Jacobian of the distortion, by central differences) and the pixels.
+    const double h = 1e-6;
+    const cv::Point2d dx = (distortNormalized(camera, n + cv::Point2d(h, 0)) - distortNormalized(camera, n - cv::Point2d(h, 0))) * (0.5 / h);
+    const cv::Point2d dy = (distortNormalized(camera, n + cv::Point2d(0, h)) - distortNormalized(camera, n - cv::Point2d(0, h))) * (0.5 / h);
+    const cv::Matx22d m = cv::Matx22d(camera.fc[0], 0.0, 0.0, camera.fc[1]) * cv::Matx22d(dx.x, dy.x, dx.y, dy.y) * shape;
+    s.area = std::abs(cv::determinant(m));
+    s.width = std::hypot(m(0, 0), m(0, 1));
+    s.height = std::hypot(m(1, 0), m(1, 1));
+    return s;
+}
+
+namespace {
+
+}  // namespace
+
 /// One object of one image: a feature, or touching features of different
 /// types that make one round object (split between two filters).
 struct TargetAssembler::Object {
@@ -720,8 +748,22 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
 
     // The two views must agree on the target's size at its range.
     const double dl = cv::norm(point->leftMm), dr = cv::norm(point->rightMm);
-    const double sizeL = std::sqrt(std::max(target.areaLeftPx, 0.0)) * dl / config_.stereo.left.fc[0];
-    const double sizeR = std::sqrt(std::max(target.areaRightPx, 0.0)) * dr / config_.stereo.right.fc[0];
+    // Sizes at the range. A type of round parts is measured as a small
+    // sphere there would be imaged: off the axis its image is stretched
+    // (radially by 1/cos^2, across by 1/cos of the ray's angle) and the lens
+    // scales it (the distortion's Jacobian); a duck near one side in one
+    // view only would otherwise look larger there (7 % at 16 and 24
+    // degrees). Without a model the shape is unknown (a flat face towards
+    // the cameras is not stretched so): the plain scale.
+    const bool spherical = round || composite;
+    const ImageScale scaleL = spherical ? imageScale(config_.stereo.left, point->leftMm)
+                                        : ImageScale{config_.stereo.left.fc[0] * config_.stereo.left.fc[0],
+                                                     config_.stereo.left.fc[0], config_.stereo.left.fc[1]};
+    const ImageScale scaleR = spherical ? imageScale(config_.stereo.right, point->rightMm)
+                                        : ImageScale{config_.stereo.right.fc[0] * config_.stereo.right.fc[0],
+                                                     config_.stereo.right.fc[0], config_.stereo.right.fc[1]};
+    const double sizeL = std::sqrt(std::max(target.areaLeftPx, 0.0)) * dl / std::sqrt(scaleL.area);
+    const double sizeR = std::sqrt(std::max(target.areaRightPx, 0.0)) * dr / std::sqrt(scaleR.area);
     const auto relativeDifference = [](double a, double b) { return std::abs(a - b) / std::max(0.5 * (a + b), 1e-9); };
     const double mismatch = relativeDifference(sizeL, sizeR);
     if (!round) {
@@ -732,8 +774,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // few per cent; a part hidden in one view, or a neighbour of its
         // colour run into it there, changes them more (an area can hide
         // that when the two differ in opposite directions).
-        const double wL = fl.box.width * dl / config_.stereo.left.fc[0], wR = fr.box.width * dr / config_.stereo.right.fc[0];
-        const double hL = fl.box.height * dl / config_.stereo.left.fc[1], hR = fr.box.height * dr / config_.stereo.right.fc[1];
+        const double wL = fl.box.width * dl / scaleL.width, wR = fr.box.width * dr / scaleR.width;
+        const double hL = fl.box.height * dl / scaleL.height, hR = fr.box.height * dr / scaleR.height;
         if (relativeDifference(wL, wR) > limits_.maxExtentMismatch)
             target.flags |= wL < wR ? kTargetOccludedLeft : kTargetOccludedRight;
         if (relativeDifference(hL, hR) > limits_.maxExtentMismatch)

@@ -103,6 +103,16 @@ struct CompletenessLimits {
 std::vector<bool> typesNear(const std::vector<TargetType>& types, const cv::Vec3f& bgr, int depth, int bitDepth,
                             double marginLog);
 
+/// How a small sphere at @p pointMm (camera frame) is imaged, per unit of
+/// its angular radius (radius / range): its image's area over pi (px^2),
+/// and half the width and height of its bounding box (px). Off the axis the
+/// image is stretched radially by 1/cos^2 and across by 1/cos of the ray's
+/// angle; the lens distortion's Jacobian and the focal lengths follow.
+struct ImageScale {
+    double area{1.0}, width{1.0}, height{1.0};
+};
+ImageScale imageScale(const CameraIntrinsics& camera, const cv::Point3d& pointMm);
+
 class TargetAssembler {
 public:
     explicit TargetAssembler(const AvatarConfig& config, CompletenessLimits limits = {});
