@@ -766,6 +766,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const double sizeR = std::sqrt(std::max(target.areaRightPx, 0.0)) * dr / std::sqrt(scaleR.area);
     const auto relativeDifference = [](double a, double b) { return std::abs(a - b) / std::max(0.5 * (a + b), 1e-9); };
     const double mismatch = relativeDifference(sizeL, sizeR);
+    double widthMismatch = 0.0, heightMismatch = 0.0;
     if (!round) {
         const double limit = limits_.maxAreaMismatch;
         if (mismatch > limit) target.flags |= sizeL < sizeR ? kTargetOccludedLeft : kTargetOccludedRight;
@@ -776,9 +777,11 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // that when the two differ in opposite directions).
         const double wL = fl.box.width * dl / scaleL.width, wR = fr.box.width * dr / scaleR.width;
         const double hL = fl.box.height * dl / scaleL.height, hR = fr.box.height * dr / scaleR.height;
-        if (relativeDifference(wL, wR) > limits_.maxExtentMismatch)
+        widthMismatch = relativeDifference(wL, wR);
+        heightMismatch = relativeDifference(hL, hR);
+        if (widthMismatch > limits_.maxExtentMismatch)
             target.flags |= wL < wR ? kTargetOccludedLeft : kTargetOccludedRight;
-        if (relativeDifference(hL, hR) > limits_.maxExtentMismatch)
+        if (heightMismatch > limits_.maxExtentMismatch)
             target.flags |= hL < hR ? kTargetOccludedLeft : kTargetOccludedRight;
     } else if (model == ShapeModel::None && views[0].roundFits && views[1].roundFits &&
                mismatch > limits_.maxSizeMismatch) {
@@ -842,7 +845,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     if (log4cpp::Category& log = logger(); log.isDebugEnabled()) {
         auto stream = log.debugStream();
         stream << type.name << " at L " << cl << " R " << cr << ": tangency top " << topPx << " bottom " << bottomPx
-               << " px, size mismatch " << mismatch << ", size " << sizeMm << " mm"
+               << " px, size mismatch " << mismatch << ", extent mismatch " << widthMismatch << " x "
+               << heightMismatch << ", size " << sizeMm << " mm"
                << (left.typeShare < left.minShare || right.typeShare < right.minShare ? ", type share low" : "")
                << (left.type != right.type ? ", types differ" : "") << (conflict ? ", match conflict" : "");
         for (int s = 0; s < 2; ++s) {
