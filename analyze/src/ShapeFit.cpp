@@ -225,6 +225,10 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
     return fit;
 }
 
+/// How far from another target's pixels a silhouette's outline still
+/// belongs to the seam between the two (px).
+constexpr double kSeamPx = 3.0;
+
 RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const EllipseFit& fit,
                                     const std::vector<OutlinePoint>& outline, const PixelProbe& probe) {
     RoundCompleteness c;
@@ -272,7 +276,26 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
         else ++c.missing;
     }
-    c.excess = fit.excessPoints >= std::max(3, fit.points / 50);
+    // Points well outside the ellipse are another object, except at the
+    // seam with a target it touches: mixed pixels of two colours may pass
+    // this filter there (orange beside yellow), a bulge of a pixel or two.
+    std::vector<cv::Point2d> contacts;
+    for (const OutlinePoint& p : outline)
+        if (p.kind == EdgeKind::Contact) contacts.push_back(p.px);
+    int excess = fit.excessPoints;
+    if (!contacts.empty() && excess > 0) {
+        excess = 0;
+        for (const OutlinePoint& p : outline) {
+            if (p.kind != EdgeKind::Free) continue;
+            const cv::Point2d n = normalizePixel(camera, p.px);
+            const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
+            if (frame.distance(ideal) <= fit.thresholdPx) continue;
+            bool seam = false;
+            for (const cv::Point2d& q : contacts) seam = seam || cv::norm(q - p.px) <= kSeamPx;
+            excess += !seam;
+        }
+    }
+    c.excess = excess >= std::max(3, fit.points / 50);
     return c;
 }
 

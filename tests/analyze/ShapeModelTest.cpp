@@ -171,6 +171,42 @@ TEST(ShapeModel, DiscCentreIsThePoleOfTheVanishingLineNotTheEllipseCentre) {
 // the sigma it states, fitted 400 times. The spread of the fitted centre and
 // of a sphere model's cone axis must be what parameterCovariance and
 // modelPointCovariance predict (400 trials measure a sigma to about 4 %).
+// Outline points well outside a round silhouette's ellipse are a second
+// object (excess, merged), except within the seam of a target it touches:
+// mixed pixels of two colours may pass this filter there (an orange sphere
+// beside a yellow duck bulges by a pixel or two towards it).
+TEST(ShapeModel, ABulgeAtTheSeamWithANeighbourIsNotASecondObject) {
+    const AvatarConfig cfg = config(TargetShape::Sphere);
+    CameraIntrinsics camera = cfg.stereo.left;
+    camera.kc = {0, 0, 0, 0, 0};
+    const cv::Point2d centre(700.0, 500.0);
+    const double r = 40.0;
+    const auto verdict = [&](bool contactBeside) {
+        std::vector<detail::OutlinePoint> outline;
+        const int n = 150;  // 1.7 px apart
+        for (int i = 0; i < n; ++i) {
+            const double t = 2.0 * CV_PI * i / n;
+            const cv::Point2d dir(std::cos(t), std::sin(t));
+            // A bulge of 2 px over 9 points at the right; beside a
+            // neighbour its middle 5 are contact (the neighbour's pixels
+            // within 2 px), and only its two ends are free.
+            const int k = std::min(i, n - i);
+            const bool bulge = k <= 4;
+            const bool contact = contactBeside && k <= 2;
+            outline.push_back({centre + dir * (r + (bulge ? 2.0 : 0.0)),
+                               contact ? detail::EdgeKind::Contact : detail::EdgeKind::Free, 0.2});
+        }
+        const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
+        EXPECT_TRUE(fit.ok);
+        return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
+            own = cv::norm(px - centre) < r;
+            return detail::EdgeKind::Free;
+        });
+    };
+    EXPECT_TRUE(verdict(false).excess) << "a bulge in the open is another object";
+    EXPECT_FALSE(verdict(true).excess) << "a bulge at the seam with a neighbour is the seam";
+}
+
 TEST(ShapeModel, FitCovarianceMatchesTheSpreadOfNoisyOutlines) {
     const AvatarConfig cfg = config(TargetShape::Sphere);
     CameraIntrinsics camera = cfg.stereo.left;

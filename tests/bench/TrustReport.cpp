@@ -293,6 +293,7 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
     for (const auto& t : truth.targets) records.push_back(truthRecord(truth, t));
     markCrowded(records, scene, stereo);
     std::vector<bool> found(records.size(), false), foundAny(records.size(), false);
+    std::vector<std::uint32_t> flagsOf(records.size(), 0);  // of the stereo target reported for each
     const auto judgeOne = [&](const VisionTarget& v, std::vector<Hit>* hits) {
         if (!(v.flags & kTargetStereo) || !v.positionVisionMm) return;
         ++tally.stereo;
@@ -341,6 +342,7 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         rec.measuredMm = *v.positionVisionMm;
         rec.errorMm = cv::norm(rec.measuredMm - rec.truthMm);
         foundAny[i] = true;
+        flagsOf[i] |= v.flags;
         if (!whole) return;
         const bool truthWhole = t.left.visibility == render::TargetVisibility::Full &&
                                 t.right.visibility == render::TargetVisibility::Full;
@@ -417,11 +419,12 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         tally.recalled += found[i];
         tally.reportedAny += foundAny[i];
         if (!found[i]) {
-            char what[200];
+            char what[300];
+            const std::string flags = foundAny[i] ? " (reported, not whole: " + targetFlagsText(flagsOf[i]) + ")" : "";
             std::snprintf(what, sizeof what, "%s/%s %s %s %.0f mm %.0f px%s", truth.sceneName.c_str(),
                           records[i].name.c_str(), records[i].type.c_str(),
                           std::string(render::toString(records[i].shape)).c_str(), records[i].rangeMm,
-                          records[i].areaLeftPx, foundAny[i] ? " (reported, not whole)" : "");
+                          records[i].areaLeftPx, flags.c_str());
             tally.misses.push_back(what);
         }
     }
