@@ -582,15 +582,16 @@ TEST(ShapeModel, ImageScaleGivesASpheresSizeAtAnyAngleThroughTheLens) {
 }
 
 // The type's physical size (sizeMm): two ducks of one colour side by side
-// are one feature whose views agree with each other, so nothing else tells
-// them from one duck; the size does. Within the range a duck stays whole,
-// above it the pair is merged, below it a duck is ambiguous.
+// are one feature whose views agree with each other; for a type without a
+// shape model only the size tells them from one duck (the composite model
+// does too: see above). Within the range a duck stays whole, above it the
+// pair is merged, below it a duck is ambiguous.
 TEST(Completeness, TheTypesSizeTellsTwoTouchingDucksFromOne) {
     const double r = 35.0;
     const cv::Vec3d centre(-60, 20, 800);
     render::Scene one = emptyLab();
     one.targets = {target("duck", render::Shape::Duck, centre, r)};
-    AvatarConfig cfg = config(TargetShape::Composite);
+    AvatarConfig cfg = config(TargetShape::None);  // the size alone
     const Outcome alone = run(one, cfg);
     // Its size from the truth: the diameter of the circle of its silhouette's area at its range.
     const render::TargetTruth& truth = alone.truth.target("duck");
