@@ -8,6 +8,9 @@
 // Inputs (made once per process, on first use):
 //   lab_1280x960       the lab scene (data/scenes/lab.xml) rendered by
 //                      avatar::render with the Scorpion configuration;
+//   lab_640x480, lab_2448x2048  the same scene with the same field of view at
+//                      0.3 and 5 MP (focal lengths, pixel limits and the match
+//                      box scaled): the cost per megapixel of one scene;
 //   synthetic_WxH/n:N  N discs per image (alternately of the two target
 //                      colours) on a noisy sand-coloured background, the
 //                      right image shifted by a fixed disparity, at
@@ -20,7 +23,9 @@
 //   Pipeline/<input>          AnalyzeStereoImagePair::analyze (two threads);
 //                             counters: median per stage (ms, from
 //                             VisionTargets::timings), total, and what was found.
-//   PipelineSerial/<input>    the same with setParallel(false) (one thread).
+//   PipelineSerial/<input>    the same with setParallel(false) (one thread:
+//                             the time is the CPU time per pair; counter
+//                             megapixels, per image, for ms per megapixel).
 //   Baseline/<input>          plain OpenCV calls, one image after the other.
 //   PipelineVsBaseline/<input> both, interleaved per iteration: the time is the
 //                             chain's; counters give the baseline's median and
@@ -167,9 +172,22 @@ struct Input {
 constexpr int kLabWidth = 1280;
 constexpr int kLabHeight = 960;
 
-Input makeLab() {
+/// The lab scene seen by the Scorpion cameras with @p size pixels (the same
+/// field of view: focal lengths, principal points, pixel limits of the
+/// configuration and the match box scaled with the image), so that the same
+/// scene can be priced per megapixel.
+Input makeLab(cv::Size size = {kLabWidth, kLabHeight}) {
     Input in;
-    in.config = benchConfig({kLabWidth, kLabHeight});
+    in.config = benchConfig(size);
+    const double sx = size.width / static_cast<double>(kLabWidth), sy = size.height / static_cast<double>(kLabHeight);
+    if (sx != 1.0 || sy != 1.0) {
+        for (TargetType& t : in.config.targets.targets) t.area = {t.area.min * sx * sy, t.area.max * sx * sy};
+        MatchConfig& m = in.config.match;
+        m.boxDxMin *= sx;
+        m.boxDxMax *= sx;
+        m.boxDyMin *= sy;
+        m.boxDyMax *= sy;
+    }
     const render::Scene scene = render::readSceneFile(std::string(AVATAR_DATA_DIR) + "/scenes/lab.xml");
     render::RenderOptions options;
     options.sensor = render::sensorFormatFrom(in.config.camera);
@@ -235,10 +253,10 @@ const Input& input(const std::string& name) {
     static std::map<std::string, std::unique_ptr<Input>> cache;
     auto& slot = cache[name];
     if (!slot) {
-        if (name == "lab_1280x960") {
-            slot = std::make_unique<Input>(makeLab());
+        int w = 0, h = 0, n = 0;
+        if (std::sscanf(name.c_str(), "lab_%dx%d", &w, &h) == 2) {
+            slot = std::make_unique<Input>(makeLab({w, h}));
         } else {
-            int w = 0, h = 0, n = 0;
             if (std::sscanf(name.c_str(), "synthetic_%dx%d/n:%d", &w, &h, &n) != 3)
                 throw InvalidArgument("bench_pipeline: unknown input " + name);
             slot = std::make_unique<Input>(makeSynthetic({w, h}, n));
@@ -444,8 +462,13 @@ void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel
         state.SkipWithError(error.c_str());
         return;
     }
+    // A second warm-up frame: the first frame's buffers are still held (by
+    // lastFrame()) while the second is analysed, so the pools fill up only
+    // then; from the third frame on a frame allocates nothing (FirstFrame
+    // prices the first).
+    chain.analyze(in.pair, 1);
     StageTimes times;
-    std::uint64_t iteration = 1;
+    std::uint64_t iteration = 2;
     const long faults0 = minorFaults();
     for (auto _ : state) {
         const VisionTargets result = chain.analyze(in.pair, iteration++);
@@ -455,6 +478,7 @@ void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel
     state.counters["faults"] = benchmark::Counter(static_cast<double>(minorFaults() - faults0),
                                                   benchmark::Counter::kAvgIterations);
     times.report(state);
+    state.counters["megapixels"] = in.pair.size().area() / 1e6;  // per image: divide total_ms by it for ms/MP
     reportFound(state, f);
 }
 
@@ -659,10 +683,13 @@ void registerAll() {
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime();
     }
-    for (const std::string name : {"lab_1280x960", "synthetic_1280x960/n:10"}) {
+    // One thread: CPU time per pair, and per megapixel from 0.3 to 5 MP.
+    for (const std::string name : {"lab_1280x960", "lab_640x480", "lab_2448x2048", "synthetic_640x480/n:1",
+                                   "synthetic_1280x960/n:1", "synthetic_2448x2048/n:1", "synthetic_1280x960/n:10"})
         benchmark::RegisterBenchmark(("PipelineSerial/" + name).c_str(), BM_Pipeline, name, false)
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime();
+    for (const std::string name : {"lab_1280x960", "synthetic_1280x960/n:10"}) {
         benchmark::RegisterBenchmark(("PipelineVsBaseline/" + name).c_str(), BM_PipelineVsBaseline, name)
             ->Unit(benchmark::kMillisecond)
             ->UseManualTime();
