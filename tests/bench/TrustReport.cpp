@@ -615,7 +615,10 @@ int main(int argc, char** argv) {
                 dumpCrops(o.dumpDir, rr.truth, analysis.lastFrame(), names);
             }
             if (o.verbose && (tally.falses.size() > falsesBefore || tally.misses.size() > missesBefore)) {
-                std::fprintf(stderr, "scene %s\n", rr.truth.sceneName.c_str());
+                const render::Lighting& li = set[k].lighting;
+                std::fprintf(stderr, "scene %s: water (%.2f %.2f %.2f)/m, darkness %.2f, turbidity %.2f/m, %zu occluders\n",
+                             rr.truth.sceneName.c_str(), li.attenuationPerM[0], li.attenuationPerM[1],
+                             li.attenuationPerM[2], li.darknessFactor, li.turbidityPerM, set[k].occluders.size());
                 for (const auto& t : rr.truth.targets)
                     std::fprintf(stderr, "  truth %s %s %s (%.1f %.1f %.1f) L %s %.0f px hidden %.3f R %s %.0f px hidden %.3f\n",
                                  t.name.c_str(), t.type.c_str(), std::string(render::toString(t.shape)).c_str(),
