@@ -91,6 +91,7 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
     frame.result.iteration = iteration;
     frame.result.acquisition = pair.id();
     frame.wholeImagesWanted = keepWholeImages_;
+    frame.sidesInTurn = !parallel_;
     tracker_->begin(frame);
 
     // Consecutive stages whose sides are independent run as one batch: every

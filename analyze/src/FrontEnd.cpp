@@ -301,76 +301,120 @@ bool prepareImage(cv::Mat& image, cv::Size size, int type) {
     return false;
 }
 
+/// One image's pass, its rows computed in steps (advance()), so that two
+/// images of a pair can take turns over the same rows (runFrontEndPair) and
+/// each row of lighting factors is read from memory once for both.
 template <typename S>
-void run(const FrontEndInput& in, FrontEndResult& out) {
-    const cv::Mat& mosaic = in.mosaic;
-    const int w = mosaic.cols, h = mosaic.rows;
-    const int depth = mosaic.depth();
-    const std::size_t n = static_cast<std::size_t>(w);
-    const bool regional = in.regions != nullptr && !in.regions->empty();
-    const bool writeImage = in.writeImage || regional;
-    const bool bgrClear = writeImage && prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3)) &&
-                          out.bgrZeroOutsideRegions;
-    const std::size_t types = in.tests != nullptr ? in.tests->size() : 0;
-    out.masks.resize(types);
-    bool masksClear = out.masksZeroOutsideRegions;
-    for (cv::Mat& mask : out.masks) masksClear = prepareImage(mask, mosaic.size(), CV_8UC1) && masksClear;
-    out.maskRows.resize(regional ? 0 : types);
-    for (std::size_t t = 0; t < out.maskRows.size(); ++t) {
-        MaskRows& rows = out.maskRows[t];
-        rows.data = out.masks[t].data;
-        rows.begin.assign(static_cast<std::size_t>(h), 0);
-        rows.end.assign(static_cast<std::size_t>(h), 0);
-    }
-
-    // Rows: three of the (corrected) mosaic (a ring), the demosaiced planes, the
-    // visibility's column sums; the per-column role of each row parity.
-    std::vector<float> rows(9 * n, 0.0f);
-    float* mosaicRow[3] = {rows.data(), rows.data() + n, rows.data() + 2 * n};
-    float* demosaiced[3] = {rows.data() + 3 * n, rows.data() + 4 * n, rows.data() + 5 * n};
-    float* sums[3] = {rows.data() + 6 * n, rows.data() + 7 * n, rows.data() + 8 * n};
-    std::vector<float> ownColumn(2 * n), greenColumn(2 * n);
-    int ownColour[2], otherColour[2];
-    for (int parity = 0; parity < 2; ++parity) {
-        const int even = bayerSiteColour(in.pattern, 0, parity), odd = bayerSiteColour(in.pattern, 1, parity);
-        ownColour[parity] = even == 1 ? odd : even;
-        otherColour[parity] = 2 - ownColour[parity];
-        for (int x = 0; x < w; ++x) {
-            const bool isOwn = bayerSiteColour(in.pattern, x, parity) != 1;
-            ownColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 1.0f : 0.0f;
-            greenColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 0.0f : 1.0f;
+class Pass {
+public:
+    Pass(const FrontEndInput& input, FrontEndResult& output)
+        : in(input),
+          out(output),
+          mosaic(input.mosaic),
+          w(mosaic.cols),
+          h(mosaic.rows),
+          depth(mosaic.depth()),
+          n(static_cast<std::size_t>(w)),
+          regional(input.regions != nullptr && !input.regions->empty()),
+          writeImage(input.writeImage || regional),
+          types(input.tests != nullptr ? input.tests->size() : 0),
+          rows(9 * n, 0.0f),
+          ownColumn(2 * n),
+          greenColumn(2 * n),
+          scratch(n),
+          samplePlanes(3 * n),
+          blockRow(n / 4 + 1),
+          full(static_cast<float>((1 << input.bitDepth) - 1)),
+          avx512(!input.portableKernels && cpuRunsAvx512f()),
+          measure(input.visibility && !regional),
+          reduce(measure && w % 4 == 0 && h % 4 == 0),
+          small(output.reduced) {
+        if (measure && !reduce && !writeImage)
+            throw InvalidArgument("front end: the visibility of a " + std::to_string(w) + "x" + std::to_string(h) +
+                                  " image (sides not multiples of 4) is measured on the image, which was not asked for");
+        bgrClear = writeImage && prepareImage(out.bgr, mosaic.size(), CV_MAKETYPE(depth, 3)) &&
+                   out.bgrZeroOutsideRegions;
+        out.masks.resize(types);
+        masksClear = out.masksZeroOutsideRegions;
+        for (cv::Mat& mask : out.masks) masksClear = prepareImage(mask, mosaic.size(), CV_8UC1) && masksClear;
+        out.maskRows.resize(regional ? 0 : types);
+        for (std::size_t t = 0; t < out.maskRows.size(); ++t) {
+            MaskRows& spans = out.maskRows[t];
+            spans.data = out.masks[t].data;
+            spans.begin.assign(static_cast<std::size_t>(h), 0);
+            spans.end.assign(static_cast<std::size_t>(h), 0);
         }
+        // Rows: three of the (corrected) mosaic (a ring), the demosaiced planes, the
+        // visibility's column sums; the per-column role of each row parity.
+        for (int k = 0; k < 3; ++k) {
+            mosaicRow[k] = rows.data() + static_cast<std::size_t>(k) * n;
+            demosaiced[k] = rows.data() + static_cast<std::size_t>(3 + k) * n;
+            sums[k] = rows.data() + static_cast<std::size_t>(6 + k) * n;
+        }
+        for (int parity = 0; parity < 2; ++parity) {
+            const int even = bayerSiteColour(in.pattern, 0, parity), odd = bayerSiteColour(in.pattern, 1, parity);
+            ownColour[parity] = even == 1 ? odd : even;
+            otherColour[parity] = 2 - ownColour[parity];
+            for (int x = 0; x < w; ++x) {
+                const bool isOwn = bayerSiteColour(in.pattern, x, parity) != 1;
+                ownColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 1.0f : 0.0f;
+                greenColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 0.0f : 1.0f;
+            }
+        }
+        if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));  // kept when it has that size
     }
-    std::vector<std::uint8_t> scratch(n);
-    std::vector<S> samplePlanes(3 * n);
-    std::vector<float> blockRow(n / 4 + 1);
 
-    const float full = static_cast<float>((1 << in.bitDepth) - 1);
-    [[maybe_unused]] const bool avx512 = !in.portableKernels && cpuRunsAvx512f();
-    const bool measure = in.visibility && !regional;
-    const bool reduce = measure && w % 4 == 0 && h % 4 == 0;
-    if (measure && !reduce && !writeImage)
-        throw InvalidArgument("front end: the visibility of a " + std::to_string(w) + "x" + std::to_string(h) +
-                              " image (sides not multiples of 4) is measured on the image, which was not asked for");
-    cv::Mat& small = out.reduced;
-    if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));  // kept when it has that size
-    std::int64_t saturated = 0;
+    /// Whether the pass covers the whole image (no search regions).
+    bool whole() const { return !regional; }
 
-    // Every output pixel of @p area. The demosaic of its edge pixels reads one
-    // more column and row of the mosaic each side (where the image has them),
-    // and the image's first and last rows and columns copy their neighbour's,
-    // as OpenCV's: so an area gives exactly what the whole image gives there.
-    const auto pass = [&](const cv::Rect& area) {
+    /// The whole pass: every region, or the whole image and its visibility.
+    void run() {
+        if (regional) {
+            // The callers' buffers are 0 outside the regions (BufferPool::getZeroedOutside);
+            // one that is not is cleared here.
+            if (!bgrClear) out.bgr.setTo(0);
+            if (!masksClear)
+                for (cv::Mat& mask : out.masks) mask.setTo(0);
+            const cv::Rect image(0, 0, w, h);
+            for (const cv::Rect& r : *in.regions) {
+                if ((r & image) != r || r.empty())
+                    throw InvalidArgument("front end: search region [" + std::to_string(r.x) + ", " +
+                                          std::to_string(r.y) + ", " + std::to_string(r.width) + "x" +
+                                          std::to_string(r.height) + "] is empty or not inside the " +
+                                          std::to_string(w) + "x" + std::to_string(h) + " image");
+                start(r);
+                advance(r.y + r.height);
+            }
+            out.visibility.reset();
+            return;
+        }
+        start(cv::Rect(0, 0, w, h));
+        advance(h);
+        finish();
+    }
+
+    /// Begins @p a: every output pixel of it, as the whole image gives them.
+    /// The demosaic of its edge pixels reads one more column and row of the
+    /// mosaic each side (where the image has them), and the image's first and
+    /// last rows and columns copy their neighbour's, as OpenCV's.
+    void start(const cv::Rect& a) {
+        area = a;
         // The columns demosaiced: the area widened by one each side inside the
         // image, and at least three, so that a first or last column always has
         // the neighbour it copies computed.
-        const int c0 = std::max(std::min(area.x - 1, w - 3), 0);
-        const int c1 = std::min(std::max(area.x + area.width + 1, 3), w);
-        const int m = c1 - c0;
-        const std::size_t o = static_cast<std::size_t>(c0);
-        int loaded = std::clamp(area.y, 1, h - 2) - 2;  // the last mosaic row loaded
-        int lastSource = -1;
-        for (int y = area.y; y < area.y + area.height; ++y) {
+        c0 = std::max(std::min(area.x - 1, w - 3), 0);
+        c1 = std::min(std::max(area.x + area.width + 1, 3), w);
+        m = c1 - c0;
+        o = static_cast<std::size_t>(c0);
+        loaded = std::clamp(area.y, 1, h - 2) - 2;  // the last mosaic row loaded
+        lastSource = -1;
+        y = area.y;
+    }
+
+    /// The area's rows up to (not including) @p yEnd.
+    void advance(int yEnd) {
+        yEnd = std::min(yEnd, area.y + area.height);
+        for (; y < yEnd; ++y) {
             // The first and last rows copy their neighbour's demosaic, as OpenCV's.
             const int source = std::clamp(y, 1, h - 2);
             bool summed = false;  // this row's visibility sums gathered by the demosaic
@@ -456,32 +500,75 @@ void run(const FrontEndInput& in, FrontEndResult& out) {
                 }
             }
         }
-    };
+    }
 
-    if (regional) {
-        // The callers' buffers are 0 outside the regions (BufferPool::getZeroedOutside);
-        // one that is not is cleared here.
-        if (!bgrClear) out.bgr.setTo(0);
-        if (!masksClear)
-            for (cv::Mat& mask : out.masks) mask.setTo(0);
-        const cv::Rect image(0, 0, w, h);
-        for (const cv::Rect& area : *in.regions) {
-            if ((area & image) != area || area.empty())
-                throw InvalidArgument("front end: search region [" + std::to_string(area.x) + ", " +
-                                      std::to_string(area.y) + ", " + std::to_string(area.width) + "x" +
-                                      std::to_string(area.height) + "] is empty or not inside the " +
-                                      std::to_string(w) + "x" + std::to_string(h) + " image");
-            pass(area);
-        }
-        out.visibility.reset();
+    /// After a whole image's rows: its visibility.
+    void finish() {
+        if (in.visibility)
+            out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total())
+                                    : measureVisibility(out.bgr, in.bitDepth);
+        else
+            out.visibility.reset();
+    }
+
+private:
+    const FrontEndInput& in;
+    FrontEndResult& out;
+    const cv::Mat& mosaic;
+    const int w, h, depth;
+    const std::size_t n;
+    const bool regional, writeImage;
+    const std::size_t types;
+    bool bgrClear{false}, masksClear{false};
+    std::vector<float> rows;
+    float* mosaicRow[3];
+    float* demosaiced[3];
+    float* sums[3];
+    std::vector<float> ownColumn, greenColumn;
+    int ownColour[2], otherColour[2];
+    std::vector<std::uint8_t> scratch;
+    std::vector<S> samplePlanes;
+    std::vector<float> blockRow;
+    const float full;
+    [[maybe_unused]] const bool avx512;
+    const bool measure, reduce;
+    cv::Mat& small;
+    std::int64_t saturated{0};
+    // The area being computed and where its rows stand.
+    cv::Rect area;
+    int c0{0}, c1{0}, m{0};
+    std::size_t o{0};
+    int loaded{0}, lastSource{-1}, y{0};
+};
+
+template <typename S>
+void run(const FrontEndInput& in, FrontEndResult& out) {
+    Pass<S>(in, out).run();
+}
+
+/// Both images of a pair, taking turns every kPairStripRows rows: the two
+/// read the same lighting factors, which are then still in cache for the
+/// second (the factor image, 4 bytes a site, is the largest input).
+constexpr int kPairStripRows = 8;
+
+template <typename S>
+void runPair(const FrontEndInput& left, FrontEndResult& outLeft, const FrontEndInput& right,
+             FrontEndResult& outRight) {
+    Pass<S> a(left, outLeft), b(right, outRight);
+    if (!a.whole() || !b.whole()) {
+        a.run();
+        b.run();
         return;
     }
-    pass(cv::Rect(0, 0, w, h));
-    if (in.visibility)
-        out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total())
-                                : measureVisibility(out.bgr, in.bitDepth);
-    else
-        out.visibility.reset();
+    const int h = left.mosaic.rows;
+    a.start(cv::Rect(0, 0, left.mosaic.cols, h));
+    b.start(cv::Rect(0, 0, right.mosaic.cols, h));
+    for (int y = 0; y < h; y += kPairStripRows) {
+        a.advance(y + kPairStripRows);
+        b.advance(y + kPairStripRows);
+    }
+    a.finish();
+    b.finish();
 }
 
 /// Every second sample of @p in (the sites of one colour in a mosaic row).
@@ -592,7 +679,9 @@ FrontEndInput imageInput(const AnalysisFrame& frame, Side side) {
     return in;
 }
 
-void runFrontEnd(const FrontEndInput& in, FrontEndResult& out) {
+namespace {
+
+void checkInput(const FrontEndInput& in) {
     if (!frontEndHandles(in.mosaic))
         throw InvalidArgument("front end: needs an 8- or 16-bit one-channel mosaic of at least 4x4, got " +
                               cv::typeToString(in.mosaic.type()) + " " + std::to_string(in.mosaic.cols) + "x" +
@@ -603,10 +692,30 @@ void runFrontEnd(const FrontEndInput& in, FrontEndResult& out) {
                               std::to_string(maxBits) + "-bit samples");
     if (in.factors != nullptr && (in.factors->type() != CV_32FC1 || in.factors->size() != in.mosaic.size()))
         throw InvalidArgument("front end: the lighting factors must be a CV_32FC1 image of the mosaic's size");
+}
+
+}  // namespace
+
+void runFrontEnd(const FrontEndInput& in, FrontEndResult& out) {
+    checkInput(in);
     if (in.mosaic.depth() == CV_8U)
         run<std::uint8_t>(in, out);
     else
         run<std::uint16_t>(in, out);
+}
+
+void runFrontEndPair(const FrontEndInput& left, FrontEndResult& outLeft, const FrontEndInput& right,
+                     FrontEndResult& outRight) {
+    checkInput(left);
+    checkInput(right);
+    if (left.mosaic.size() != right.mosaic.size() || left.mosaic.depth() != right.mosaic.depth()) {
+        runFrontEnd(left, outLeft);
+        runFrontEnd(right, outRight);
+    } else if (left.mosaic.depth() == CV_8U) {
+        runPair<std::uint8_t>(left, outLeft, right, outRight);
+    } else {
+        runPair<std::uint16_t>(left, outLeft, right, outRight);
+    }
 }
 
 }  // namespace avatar::detail

@@ -104,6 +104,14 @@ bool frontEndHandles(const cv::Mat& mosaic);
 /// The pass. Thread-safe: the left and right image may run at once.
 void runFrontEnd(const FrontEndInput& in, FrontEndResult& out);
 
+/// Both images of a pair on one thread, bit for bit what runFrontEnd() gives
+/// each: whole-image passes take turns over strips of rows, so that each
+/// strip of lighting factors is read from memory once for both (the factor
+/// image, 4 bytes a site, is read for each image otherwise; at 5 MP it does
+/// not stay in cache from one image to the next).
+void runFrontEndPair(const FrontEndInput& left, FrontEndResult& outLeft, const FrontEndInput& right,
+                     FrontEndResult& outRight);
+
 /// The input that computes @p frame's working image of @p side again, the
 /// image alone (no tests, no visibility), from its original mosaic with the
 /// factors and byte order its front end used (AnalysisFrame::imagesAroundFeatures).

@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <iterator>
+#include <optional>
 
 namespace avatar {
 namespace {
@@ -115,6 +116,10 @@ private:
     /// The coarse pass of a coarse frame: @p side's regions from what it finds
     /// (none found: the whole image), and the visibility from its superpixels.
     void searchCoarse(AnalysisFrame& frame, Side side, const detail::FrontEndInput& in);
+    /// The fused pass's input for @p side, and its output buffers in @p out.
+    detail::FrontEndInput fusedInput(AnalysisFrame& frame, Side side, detail::FrontEndResult& out);
+    /// The pass's results into @p side's ImageWork.
+    void storeFused(AnalysisFrame& frame, Side side, detail::FrontEndResult& out);
 
     bool swap_;
     bool imagesAroundFeatures_{false};
@@ -134,6 +139,9 @@ private:
     std::array<detail::BufferPool, 2> images_;
     std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
     std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
+    /// The right image's pass, run with the left's when the sides take turns
+    /// on one thread (AnalysisFrame::sidesInTurn), until its processImage().
+    std::optional<detail::FrontEndResult> pendingRight_;
     std::array<detail::CoarseResult, 2> coarsePass_;
     /// The share of each side's image that its last frame's image around the
     /// features covered (featuresFound()).
@@ -481,6 +489,27 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
         if (visibility_ != nullptr) visibility_->work(frame, side);
         return;
     }
+    if (side == Side::Right && pendingRight_) {  // computed with the left image's (runFrontEndPair)
+        detail::FrontEndResult out = std::move(*pendingRight_);
+        pendingRight_.reset();
+        storeFused(frame, side, out);
+        return;
+    }
+    pendingRight_.reset();
+    detail::FrontEndResult out;
+    const detail::FrontEndInput in = fusedInput(frame, side, out);
+    if (side == Side::Left && frame.sidesInTurn && !frame.coarse && !frame.tracking()) {
+        detail::FrontEndResult right;
+        const detail::FrontEndInput inRight = fusedInput(frame, Side::Right, right);
+        detail::runFrontEndPair(in, out, inRight, right);
+        pendingRight_ = std::move(right);
+    } else {
+        detail::runFrontEnd(in, out);
+    }
+    storeFused(frame, side, out);
+}
+
+detail::FrontEndInput DemosaicStage::fusedInput(AnalysisFrame& frame, Side side, detail::FrontEndResult& out) {
     const std::size_t i = side == Side::Left ? 0 : 1;
     const cv::Mat& mosaic = frame.original.image(side);
     detail::FrontEndInput in;
@@ -497,7 +526,6 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
         searchCoarse(frame, side, in);
     const std::vector<cv::Rect>& regions = frame.regionsOf(side);
     in.regions = &regions;
-    detail::FrontEndResult out;
     out.reduced = std::move(reduced_[i]);
     const auto buffer = [&](detail::BufferPool& pool, int type) {
         return regions.empty() ? pool.get(mosaic.size(), type) : pool.getZeroedOutside(mosaic.size(), type, regions);
@@ -508,15 +536,19 @@ void DemosaicStage::processImage(AnalysisFrame& frame, Side side) {
     out.masks.resize(tests_.size());
     if (in.tests != nullptr)
         for (cv::Mat& m : out.masks) m = buffer(masks_[i], CV_8UC1);
-    detail::runFrontEnd(in, out);
+    return in;
+}
+
+void DemosaicStage::storeFused(AnalysisFrame& frame, Side side, detail::FrontEndResult& out) {
+    const std::size_t i = side == Side::Left ? 0 : 1;
     ImageWork& work = frame.at(side);
     work.image = std::move(out.bgr);
-    if (in.tests != nullptr) work.masks = std::move(out.masks);
+    if (filter_ != nullptr) work.masks = std::move(out.masks);
     if (out.visibility) work.visibility = *out.visibility;
-    else if (frame.coarse && !regions.empty() && coarsePass_[i].visibility)
+    else if (frame.coarse && !frame.regionsOf(side).empty() && coarsePass_[i].visibility)
         work.visibility = *coarsePass_[i].visibility;
     reduced_[i] = std::move(out.reduced);
-    if (in.tests != nullptr) {
+    if (filter_ != nullptr) {
         maskRows_[i] = std::move(out.maskRows);
         for (const cv::Mat& mask : work.masks) written_[i].push_back(mask.data);
     }

@@ -28,6 +28,7 @@
 #include <cstring>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace avatar {
@@ -208,6 +209,33 @@ void checkCase(const Case& c, std::uint64_t seed) {
     detail::runFrontEnd(in, out);
     EXPECT_EQ(out.bgr.data, image);
     expectIdentical(out.bgr, bgr, "image, second run");
+
+    // Two images of a pair taking turns over strips of rows (one thread,
+    // one read of each factor row): each exactly what its own pass gives.
+    detail::FrontEndInput other = in;
+    cv::Mat flipped;  // a new buffer: other.mosaic shares in's
+    cv::flip(stored, flipped, -1);
+    other.mosaic = flipped;
+    detail::FrontEndResult alone, pairLeft, pairRight;
+    detail::runFrontEnd(other, alone);
+    detail::runFrontEndPair(in, pairLeft, other, pairRight);
+    for (const auto& [got, want, name] : {std::tuple(&pairLeft, &out, "left"), std::tuple(&pairRight, &alone, "right")}) {
+        const std::string what = std::string(name) + " of a pair";
+        expectIdentical(got->bgr, want->bgr, "image, " + what);
+        ASSERT_EQ(got->masks.size(), want->masks.size());
+        for (std::size_t t = 0; t < want->masks.size(); ++t) {
+            expectIdentical(got->masks[t], want->masks[t], "mask of " + types[t].name + ", " + what);
+            EXPECT_EQ(got->maskRows[t].begin, want->maskRows[t].begin) << what;
+            EXPECT_EQ(got->maskRows[t].end, want->maskRows[t].end) << what;
+        }
+        ASSERT_TRUE(got->visibility.has_value());
+        EXPECT_EQ(std::memcmp(&got->visibility->contrast, &want->visibility->contrast, sizeof(double)), 0) << what;
+        EXPECT_EQ(std::memcmp(&got->visibility->haze, &want->visibility->haze, sizeof(double)), 0) << what;
+        EXPECT_EQ(std::memcmp(&got->visibility->saturatedFraction, &want->visibility->saturatedFraction,
+                              sizeof(double)),
+                  0)
+            << what;
+    }
 
     // The portable loops give the same where the CPU runs the AVX-512 ones.
     in.portableKernels = true;

@@ -79,6 +79,13 @@ struct AnalysisFrame {
     ImageWork& at(Side side) { return images[side == Side::Left ? 0 : 1]; }
     const ImageWork& at(Side side) const { return images[side == Side::Left ? 0 : 1]; }
     const std::vector<cv::Rect>& regionsOf(Side side) const { return regions[side == Side::Left ? 0 : 1]; }
+    /// Set by the orchestrator when the sides' processImage() calls run one
+    /// after the other on one thread, the left first
+    /// (AnalyzeStereoImagePair::setParallel(false)): a stage may then do the
+    /// right image's work in the left's call as well (the fused front end
+    /// shares each row of lighting factors between the two), writing the
+    /// right's ImageWork only in the right's call.
+    bool sidesInTurn{false};
     /// Whether this is a tracking frame (some side has search regions).
     bool tracking() const { return !regions[0].empty() || !regions[1].empty(); }
 };
