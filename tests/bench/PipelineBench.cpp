@@ -29,7 +29,13 @@
 //   Baseline/<input>          plain OpenCV calls, one image after the other.
 //   PipelineVsBaseline/<input> both, interleaved per iteration: the time is the
 //                             chain's; counters give the baseline's median and
-//                             the ratio baseline / chain measured under the same load.
+//                             the ratio baseline / chain measured under the same load,
+//                             in wall time (speedup) and in CPU time of all
+//                             threads (cpu_ms, baseline_cpu_ms, cpu_speedup).
+//   PipelineSerialVsBaseline/<input> the same with the chain on one thread.
+//   PipelineScaling/lab       lab_640x480, lab_1280x960 and lab_2448x2048 in
+//                             turn, one thread: CPU ms per megapixel of each
+//                             and their spread (largest / smallest).
 //   Tracking/lab_1280x960/full_every:N  the tracking mode on one thread, a
 //                             whole image every N frames (1000000: tracking
 //                             frames only); CPU per pair from lastCpuTimings().
@@ -62,6 +68,7 @@
 
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
+#include <time.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -548,25 +555,81 @@ void BM_Baseline(benchmark::State& state, const std::string& name) {
 
 /// The chain and the baseline alternately, so that both see the same load;
 /// the reported time is the chain's.
-void BM_PipelineVsBaseline(benchmark::State& state, const std::string& name) {
+/// CPU time of the whole process (every thread: OpenCV's workers too), ms.
+double processCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+void BM_PipelineVsBaseline(benchmark::State& state, const std::string& name, bool parallel) {
     const Input& in = input(name);
     AnalyzeStereoImagePair chain(in.config);
+    chain.setParallel(parallel);
     Baseline baseline(in.config);
     StageTimes chainTimes, baselineTimes;
-    chain.analyze(in.pair, 0);
+    for (std::uint64_t i = 0; i < 2; ++i) chain.analyze(in.pair, i);
     baseline.run(in.pair, baselineTimes);
     baselineTimes = {};
-    std::uint64_t iteration = 1;
+    std::uint64_t iteration = 2;
+    std::vector<double> chainCpu, baselineCpu;
     for (auto _ : state) {
         const VisionTargets result = chain.analyze(in.pair, iteration++);
         chainTimes.add(result);
+        chainCpu.push_back(chain.lastCpuTimings().back().milliseconds);  // both of its threads
         state.SetIterationTime(result.timings.back().milliseconds / 1000.0);
+        const double c0 = processCpuMs();
         benchmark::DoNotOptimize(baseline.run(in.pair, baselineTimes));
+        baselineCpu.push_back(processCpuMs() - c0);
     }
     const double ours = chainTimes.medianOf("total"), theirs = baselineTimes.medianOf("total");
     state.counters["total_ms"] = ours;
     state.counters["baseline_ms"] = theirs;
     state.counters["speedup"] = ours > 0.0 ? theirs / ours : 0.0;
+    // CPU against CPU: the chain's threads against every thread of the process during the baseline.
+    const double oursCpu = median(chainCpu), theirsCpu = median(baselineCpu);
+    state.counters["cpu_ms"] = oursCpu;
+    state.counters["baseline_cpu_ms"] = theirsCpu;
+    state.counters["cpu_speedup"] = oursCpu > 0.0 ? theirsCpu / oursCpu : 0.0;
+}
+
+/// One scene at 0.3, 1.2 and 5 MP (lab_640x480, lab_1280x960,
+/// lab_2448x2048), one thread, the three in turn in every iteration so that
+/// all see the same load: CPU ms per megapixel of each (medians) and the
+/// largest over the smallest (`spread`; linear: 1).
+void BM_PipelineScaling(benchmark::State& state) {
+    const std::vector<std::string> names{"lab_640x480", "lab_1280x960", "lab_2448x2048"};
+    std::vector<const Input*> inputs;
+    std::vector<std::unique_ptr<AnalyzeStereoImagePair>> chains;
+    for (const std::string& name : names) {
+        inputs.push_back(&input(name));
+        chains.push_back(std::make_unique<AnalyzeStereoImagePair>(inputs.back()->config));
+        chains.back()->setParallel(false);
+        const Found f = found(*chains.back(), chains.back()->analyze(inputs.back()->pair, 0));
+        if (const std::string error = check(*inputs.back(), f); !error.empty()) {
+            state.SkipWithError((name + ": " + error).c_str());
+            return;
+        }
+        chains.back()->analyze(inputs.back()->pair, 1);
+    }
+    std::vector<std::vector<double>> perMp(names.size());
+    std::uint64_t iteration = 2;
+    for (auto _ : state) {
+        for (std::size_t k = 0; k < names.size(); ++k) {
+            benchmark::DoNotOptimize(chains[k]->analyze(inputs[k]->pair, iteration).targets.data());
+            perMp[k].push_back(chains[k]->lastCpuTimings().back().milliseconds /
+                               (inputs[k]->pair.size().area() / 1e6));
+        }
+        ++iteration;
+    }
+    double lo = 1e300, hi = 0.0;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+        const double m = median(perMp[k]);
+        state.counters["ms_per_mp_" + names[k].substr(4)] = m;
+        lo = std::min(lo, m);
+        hi = std::max(hi, m);
+    }
+    state.counters["spread"] = lo > 0.0 ? hi / lo : 0.0;
 }
 
 void BM_FirstFrame(benchmark::State& state, const std::string& name) {
@@ -689,8 +752,13 @@ void registerAll() {
         benchmark::RegisterBenchmark(("PipelineSerial/" + name).c_str(), BM_Pipeline, name, false)
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime();
+    benchmark::RegisterBenchmark("PipelineScaling/lab", BM_PipelineScaling)->Unit(benchmark::kMillisecond);
     for (const std::string name : {"lab_1280x960", "synthetic_1280x960/n:10"}) {
-        benchmark::RegisterBenchmark(("PipelineVsBaseline/" + name).c_str(), BM_PipelineVsBaseline, name)
+        benchmark::RegisterBenchmark(("PipelineVsBaseline/" + name).c_str(), BM_PipelineVsBaseline, name, true)
+            ->Unit(benchmark::kMillisecond)
+            ->UseManualTime();
+        benchmark::RegisterBenchmark(("PipelineSerialVsBaseline/" + name).c_str(), BM_PipelineVsBaseline, name,
+                                     false)
             ->Unit(benchmark::kMillisecond)
             ->UseManualTime();
     }
