@@ -228,6 +228,14 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
 /// How far from another target's pixels a silhouette's outline still
 /// belongs to the seam between the two (px).
 constexpr double kSeamPx = 3.0;
+/// Where a seam ends (the other target's outline leaves this one's), the
+/// mixed pixels of the two colours and the background blur along it: an
+/// outline point this close to the other target (px) and at most
+/// kSeamBulgePx outside the ellipse is still the seam. A second object
+/// in the silhouette lies its own size outside the ellipse, not a pixel
+/// or two (the bilinear demosaic's pixel of mixing and the erosion's).
+constexpr double kSeamEndPx = 8.0;
+constexpr double kSeamBulgePx = 2.5;
 
 RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const EllipseFit& fit,
                                     const std::vector<OutlinePoint>& outline, const PixelProbe& probe) {
@@ -289,9 +297,11 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
             if (p.kind != EdgeKind::Free) continue;
             const cv::Point2d n = normalizePixel(camera, p.px);
             const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
-            if (frame.distance(ideal) <= fit.thresholdPx) continue;
+            const double outside = frame.distance(ideal);
+            if (outside <= fit.thresholdPx) continue;
+            const double reach = outside <= kSeamBulgePx ? kSeamEndPx : kSeamPx;
             bool seam = false;
-            for (const cv::Point2d& q : contacts) seam = seam || cv::norm(q - p.px) <= kSeamPx;
+            for (const cv::Point2d& q : contacts) seam = seam || cv::norm(q - p.px) <= reach;
             excess += !seam;
         }
     }

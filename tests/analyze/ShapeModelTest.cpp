@@ -207,6 +207,45 @@ TEST(ShapeModel, ABulgeAtTheSeamWithANeighbourIsNotASecondObject) {
     EXPECT_FALSE(verdict(true).excess) << "a bulge at the seam with a neighbour is the seam";
 }
 
+// Where the seam with a target of another colour ends (its outline leaves
+// this one's), the mixed pixels of the two colours and the background
+// smear along this outline a few pixels past the last contact point: a
+// pixel or two outside the ellipse there is the seam's end; a second
+// object of this colour lies its size outside, and a bulge far from any
+// contact is another object too.
+TEST(ShapeModel, TheSeamsEndIsNotASecondObjectButASecondObjectBesideItIs) {
+    const AvatarConfig cfg = config(TargetShape::Sphere);
+    CameraIntrinsics camera = cfg.stereo.left;
+    camera.kc = {0, 0, 0, 0, 0};
+    const cv::Point2d centre(640.0, 420.0);
+    const double r = 40.0;
+    const int n = 150;  // 1.7 px apart
+    // Contact over points k <= 6 around t = 0 (k = distance in points from
+    // it); a bulge of @p bulgePx outside the circle over k in [from, to].
+    const auto verdict = [&](int from, int to, double bulgePx) {
+        std::vector<detail::OutlinePoint> outline;
+        for (int i = 0; i < n; ++i) {
+            const double t = 2.0 * CV_PI * i / n;
+            const cv::Point2d dir(std::cos(t), std::sin(t));
+            const int k = std::min(i, n - i);
+            const bool contact = k <= 6;
+            const bool bulge = k >= from && k <= to;
+            outline.push_back({centre + dir * (r + (bulge ? bulgePx : 0.0)),
+                               contact ? detail::EdgeKind::Contact : detail::EdgeKind::Free, 0.2});
+        }
+        const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
+        EXPECT_TRUE(fit.ok);
+        return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
+            own = cv::norm(px - centre) < r;
+            return detail::EdgeKind::Free;
+        });
+    };
+    // Points 7-10 each side: 1.7-6.8 px past the last contact point.
+    EXPECT_FALSE(verdict(7, 10, 2.0).excess) << "2 px outside at the seam's end";
+    EXPECT_TRUE(verdict(7, 10, 6.0).excess) << "6 px outside beside the seam: an object";
+    EXPECT_TRUE(verdict(16, 19, 2.0).excess) << "2 px outside 17-22 px from the seam: an object";
+}
+
 TEST(ShapeModel, FitCovarianceMatchesTheSpreadOfNoisyOutlines) {
     const AvatarConfig cfg = config(TargetShape::Sphere);
     CameraIntrinsics camera = cfg.stereo.left;
