@@ -175,33 +175,37 @@ TEST(ShapeModel, DiscCentreIsThePoleOfTheVanishingLineNotTheEllipseCentre) {
 // object (excess, merged), except within the seam of a target it touches:
 // mixed pixels of two colours may pass this filter there (an orange sphere
 // beside a yellow duck bulges by a pixel or two towards it).
-TEST(ShapeModel, ABulgeAtTheSeamWithANeighbourIsNotASecondObject) {
-    const AvatarConfig cfg = config(TargetShape::Sphere);
-    CameraIntrinsics camera = cfg.stereo.left;
+/// The round completeness of a circle of radius @p r around @p centre seen
+/// through a camera without distortion: 150 outline points (1.7 px apart),
+/// the point k positions from the rightmost one (either way round) lying
+/// bulgePx(k) outside the circle, a contact point when contact(k).
+template <typename Bulge, typename Contact>
+detail::RoundCompleteness circleVerdict(const cv::Point2d& centre, double r, Bulge bulgePx, Contact contact) {
+    CameraIntrinsics camera = config(TargetShape::Sphere).stereo.left;
     camera.kc = {0, 0, 0, 0, 0};
-    const cv::Point2d centre(700.0, 500.0);
-    const double r = 40.0;
-    const auto verdict = [&](bool contactBeside) {
-        std::vector<detail::OutlinePoint> outline;
-        const int n = 150;  // 1.7 px apart
-        for (int i = 0; i < n; ++i) {
-            const double t = 2.0 * CV_PI * i / n;
-            const cv::Point2d dir(std::cos(t), std::sin(t));
-            // A bulge of 2 px over 9 points at the right; beside a
-            // neighbour its middle 5 are contact (the neighbour's pixels
-            // within 2 px), and only its two ends are free.
-            const int k = std::min(i, n - i);
-            const bool bulge = k <= 4;
-            const bool contact = contactBeside && k <= 2;
-            outline.push_back({centre + dir * (r + (bulge ? 2.0 : 0.0)),
-                               contact ? detail::EdgeKind::Contact : detail::EdgeKind::Free, 0.2});
-        }
-        const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
-        EXPECT_TRUE(fit.ok);
-        return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
-            own = cv::norm(px - centre) < r;
-            return detail::EdgeKind::Free;
-        });
+    const int n = 150;
+    std::vector<detail::OutlinePoint> outline;
+    for (int i = 0; i < n; ++i) {
+        const double t = 2.0 * CV_PI * i / n;
+        const int k = std::min(i, n - i);
+        outline.push_back({centre + cv::Point2d(std::cos(t), std::sin(t)) * (r + bulgePx(k)),
+                           contact(k) ? detail::EdgeKind::Contact : detail::EdgeKind::Free, 0.2});
+    }
+    const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
+    EXPECT_TRUE(fit.ok);
+    return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
+        own = cv::norm(px - centre) < r;
+        return detail::EdgeKind::Free;
+    });
+}
+
+TEST(ShapeModel, ABulgeAtTheSeamWithANeighbourIsNotASecondObject) {
+    // A bulge of 2 px over 9 points at the right; beside a neighbour its
+    // middle 5 are contact (the neighbour's pixels within 2 px), and only
+    // its two ends are free.
+    const auto verdict = [](bool contactBeside) {
+        return circleVerdict({700.0, 500.0}, 40.0, [](int k) { return k <= 4 ? 2.0 : 0.0; },
+                             [&](int k) { return contactBeside && k <= 2; });
     };
     EXPECT_TRUE(verdict(false).excess) << "a bulge in the open is another object";
     EXPECT_FALSE(verdict(true).excess) << "a bulge at the seam with a neighbour is the seam";
@@ -214,31 +218,10 @@ TEST(ShapeModel, ABulgeAtTheSeamWithANeighbourIsNotASecondObject) {
 // object of this colour lies its size outside, and a bulge far from any
 // contact is another object too.
 TEST(ShapeModel, TheSeamsEndIsNotASecondObjectButASecondObjectBesideItIs) {
-    const AvatarConfig cfg = config(TargetShape::Sphere);
-    CameraIntrinsics camera = cfg.stereo.left;
-    camera.kc = {0, 0, 0, 0, 0};
-    const cv::Point2d centre(640.0, 420.0);
-    const double r = 40.0;
-    const int n = 150;  // 1.7 px apart
-    // Contact over points k <= 6 around t = 0 (k = distance in points from
-    // it); a bulge of @p bulgePx outside the circle over k in [from, to].
-    const auto verdict = [&](int from, int to, double bulgePx) {
-        std::vector<detail::OutlinePoint> outline;
-        for (int i = 0; i < n; ++i) {
-            const double t = 2.0 * CV_PI * i / n;
-            const cv::Point2d dir(std::cos(t), std::sin(t));
-            const int k = std::min(i, n - i);
-            const bool contact = k <= 6;
-            const bool bulge = k >= from && k <= to;
-            outline.push_back({centre + dir * (r + (bulge ? bulgePx : 0.0)),
-                               contact ? detail::EdgeKind::Contact : detail::EdgeKind::Free, 0.2});
-        }
-        const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
-        EXPECT_TRUE(fit.ok);
-        return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
-            own = cv::norm(px - centre) < r;
-            return detail::EdgeKind::Free;
-        });
+    // Contact over points k <= 6; a bulge of @p bulgePx over k in [from, to].
+    const auto verdict = [](int from, int to, double bulgePx) {
+        return circleVerdict({640.0, 420.0}, 40.0, [&](int k) { return k >= from && k <= to ? bulgePx : 0.0; },
+                             [](int k) { return k <= 6; });
     };
     // Points 7-10 each side: 1.7-6.8 px past the last contact point.
     EXPECT_FALSE(verdict(7, 10, 2.0).excess) << "2 px outside at the seam's end";
