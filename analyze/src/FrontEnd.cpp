@@ -277,9 +277,7 @@ AVATAR_KERNEL_CLONES void blockSums(const float* __restrict sums, float* __restr
 }
 
 /// The 4x4-block means from their sums, rounded to nearest with ties to
-/// even, as downsampleArea4() (cv::resize INTER_AREA), as samples. Planar:
-/// the three channels are interleaved afterwards (storeBlockMeans; a stride-3
-/// store kept this loop scalar).
+/// even, as downsampleArea4() (cv::resize INTER_AREA), as samples.
 template <typename S>
 AVATAR_KERNEL_CLONES void blockMeans(const float* __restrict sums, S* __restrict out, int blocks) {
     // sum = 16 q + r: adding 7 and q's parity carries into q exactly when r > 8,
@@ -290,20 +288,16 @@ AVATAR_KERNEL_CLONES void blockMeans(const float* __restrict sums, S* __restrict
     }
 }
 
-/// One row of the 4x4-block means of the three channels' column sums.
+/// One row of the 4x4-block means of the three channels' column sums, as
+/// planes into the visibility's sums (the reduced image is never stored).
 template <typename S>
-void storeBlockMeans(float* const* sums, float* blockRow, S* planes, S* out, int blocks) {
+void addBlockMeans(float* const* sums, float* blockRow, S* planes, int blocks, LumaSums& luma) {
     S* p[3] = {planes, planes + blocks, planes + 2 * blocks};
     for (int c = 0; c < 3; ++c) {
         blockSums(sums[c], blockRow, blocks);
         blockMeans(blockRow, p[c], blocks);
     }
-    if constexpr (sizeof(S) == 1) {
-        const S* src[3] = {p[0], p[1], p[2]};
-        cv::hal::merge8u(src, out, blocks, 3);
-    } else {
-        interleave3(p[0], p[1], p[2], out, blocks);  // the visibility reads it next
-    }
+    luma.addPlanes(p[0], p[1], p[2], blocks);
 }
 
 /// @p image itself when it has @p size and @p type (true), else a new buffer (false).
@@ -342,8 +336,7 @@ public:
           full(static_cast<float>((1 << input.bitDepth) - 1)),
           avx512(!input.portableKernels && cpuRunsAvx512f()),
           measure(input.visibility && !regional),
-          reduce(measure && w % 4 == 0 && h % 4 == 0),
-          small(output.reduced) {
+          reduce(measure && w % 4 == 0 && h % 4 == 0) {
         if (measure && !reduce && !writeImage)
             throw InvalidArgument("front end: the visibility of a " + std::to_string(w) + "x" + std::to_string(h) +
                                   " image (sides not multiples of 4) is measured on the image, which was not asked for");
@@ -376,7 +369,6 @@ public:
                 greenColumn[parity * n + static_cast<std::size_t>(x)] = isOwn ? 0.0f : 1.0f;
             }
         }
-        if (reduce) small.create(h / 4, w / 4, CV_MAKETYPE(depth, 3));  // kept when it has that size
     }
 
     /// Whether the pass covers the whole image (no search regions).
@@ -516,7 +508,7 @@ public:
                 if (reduce) {
                     if (!summed) saturated += sumAndCount(b, g, r, sums[0], sums[1], sums[2], w, full, y % 4 == 0);
                     if (y % 4 == 3)
-                        storeBlockMeans(sums, blockRow.data(), samplePlanes.data(), small.ptr<S>(y / 4), w / 4);
+                        addBlockMeans(sums, blockRow.data(), samplePlanes.data(), w / 4, luma);
                 } else {
                     saturated += countSaturated(b, g, r, w, full);
                 }
@@ -527,7 +519,7 @@ public:
     /// After a whole image's rows: its visibility.
     void finish() {
         if (in.visibility)
-            out.visibility = reduce ? visibilityFromReduced(small, in.bitDepth, saturated, mosaic.total())
+            out.visibility = reduce ? luma.measures(in.bitDepth, saturated, mosaic.total())
                                     : measureVisibility(out.bgr, in.bitDepth);
         else
             out.visibility.reset();
@@ -554,7 +546,7 @@ private:
     const float full;
     [[maybe_unused]] const bool avx512;
     const bool measure, reduce;
-    cv::Mat& small;
+    LumaSums luma;  ///< of the 4x4-block means (reduce)
     std::int64_t saturated{0};
     // The area being computed and where its rows stand.
     cv::Rect area;
@@ -624,7 +616,7 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
     // its pixels: saturated ones counted, 2x2 superpixel means as its 4x4 ones.
     const bool measure = in.visibility && cw % 2 == 0 && ch % 2 == 0 && cw >= 2 && ch >= 2;
     std::int64_t saturated = 0;
-    if (measure) out.reduced.create(ch / 2, cw / 2, CV_MAKETYPE(mosaic.depth(), 3));
+    LumaSums luma;  ///< of the 2x2-superpixel means (measure)
     // Where in a block each colour lies: (column, row) of red and blue, the two greens.
     cv::Point red, blue, greens[2];
     int g = 0;
@@ -647,14 +639,16 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
         if (measure) {
             saturated += sumAndCount(planes[0], planes[1], planes[2], sums[0], sums[1], sums[2], cw, full, y % 2 == 0);
             if (y % 2 == 1) {  // 2x2 superpixels: the 4x4 blocks of the whole pass's reduction
+                const int blocks = cw / 2;
+                S* p[3] = {samplePlanes.data(), samplePlanes.data() + blocks, samplePlanes.data() + 2 * blocks};
                 for (int c = 0; c < 3; ++c) {
-                    S* dst = out.reduced.ptr<S>(y / 2) + c;
                     const float* sum = sums[c];
-                    for (int x = 0; x < cw / 2; ++x) {
+                    for (int x = 0; x < blocks; ++x) {
                         const auto v = static_cast<std::uint32_t>(static_cast<std::int32_t>(sum[2 * x] + sum[2 * x + 1]));
-                        dst[3 * x] = static_cast<S>((v + 2u) >> 2);
+                        p[c][x] = static_cast<S>((v + 2u) >> 2);
                     }
                 }
+                luma.addPlanes(p[0], p[1], p[2], blocks);
             }
         }
         for (std::size_t t = 0; t < tests.size(); ++t) {
@@ -667,8 +661,7 @@ void coarse(const FrontEndInput& in, const std::vector<ColorTest>& tests, Coarse
         }
     }
     if (measure)
-        out.visibility = visibilityFromReduced(out.reduced, in.bitDepth, saturated,
-                                               static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch));
+        out.visibility = luma.measures(in.bitDepth, saturated, static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch));
     else if (in.visibility)
         out.visibility = measureVisibility(out.bgr, in.bitDepth);
     else

@@ -68,9 +68,6 @@ struct FrontEndResult {
     /// Per mask, where its on pixels lie (a whole-image pass only; a pass over
     /// regions leaves this empty).
     std::vector<MaskRows> maskRows;
-    /// Scratch for the visibility's 4x4 reduction, kept by a caller that runs
-    /// the pass again on images of the same size (no allocation per frame).
-    cv::Mat reduced;
     /// With regions: the caller's bgr or masks are known to be 0 outside them
     /// (else they are cleared first).
     bool bgrZeroOutsideRegions{false};
@@ -86,7 +83,6 @@ struct CoarseResult {
     /// With FrontEndInput::visibility: the measures from the superpixels
     /// (saturated ones, and their 2x2 means as the whole pass's 4x4 ones).
     std::optional<VisibilityMeasures> visibility;
-    cv::Mat reduced;  ///< scratch kept across frames
 };
 
 /// The coarse pass of coarse-to-fine: each 2x2 block of mosaic sites one

@@ -138,7 +138,6 @@ private:
     // Per side: buffers reused across frames.
     std::array<detail::BufferPool, 2> images_;
     std::array<detail::BufferPool, 2> masks_{detail::BufferPool(16), detail::BufferPool(16)};
-    std::array<cv::Mat, 2> reduced_;  ///< the visibility reduction's scratch
     /// The right image's pass, run with the left's when the sides take turns
     /// on one thread (AnalysisFrame::sidesInTurn), until its processImage().
     std::optional<detail::FrontEndResult> pendingRight_;
@@ -526,7 +525,6 @@ detail::FrontEndInput DemosaicStage::fusedInput(AnalysisFrame& frame, Side side,
         searchCoarse(frame, side, in);
     const std::vector<cv::Rect>& regions = frame.regionsOf(side);
     in.regions = &regions;
-    out.reduced = std::move(reduced_[i]);
     const auto buffer = [&](detail::BufferPool& pool, int type) {
         return regions.empty() ? pool.get(mosaic.size(), type) : pool.getZeroedOutside(mosaic.size(), type, regions);
     };
@@ -547,7 +545,6 @@ void DemosaicStage::storeFused(AnalysisFrame& frame, Side side, detail::FrontEnd
     if (out.visibility) work.visibility = *out.visibility;
     else if (frame.coarse && !frame.regionsOf(side).empty() && coarsePass_[i].visibility)
         work.visibility = *coarsePass_[i].visibility;
-    reduced_[i] = std::move(out.reduced);
     if (filter_ != nullptr) {
         maskRows_[i] = std::move(out.maskRows);
         for (const cv::Mat& mask : work.masks) written_[i].push_back(mask.data);

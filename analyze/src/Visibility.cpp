@@ -16,18 +16,32 @@ namespace avatar {
 
 namespace {
 
-/// Sums over one row of @p n interleaved BGR pixels: the luma in thousandths
-/// (114 B + 587 G + 299 R, an exact integer below 2^31 for 16-bit samples),
-/// its square and the smallest channel. The squares are summed in 64 bits,
-/// exact for up to kChunk pixels (kChunk * (1000 * 65535)^2 < 2^64).
+/// Sums over @p n pixels (LumaSums): exact, the squares in 64 bits for up to
+/// kChunk pixels (kChunk * (1000 * 65535)^2 < 2^64).
 constexpr int kChunk = 1024;
 
-/// Wide enough for n * sum(l^2) of any image (GCC's and Clang's 128-bit type).
-__extension__ typedef unsigned __int128 Wide;
-
 template <typename S>
-AVATAR_KERNEL_CLONES void lumaSums(const S* __restrict px, int n, std::uint64_t& luma, std::uint64_t& squares,
-                                   std::uint64_t& minimum) {
+AVATAR_KERNEL_CLONES void lumaPlaneSums(const S* __restrict b, const S* __restrict g, const S* __restrict r, int n,
+                                        std::uint64_t& luma, std::uint64_t& squares, std::uint64_t& minimum) {
+    std::uint64_t l = 0, q = 0, m = 0;
+    for (int i = 0; i < n; ++i) {
+        const std::uint32_t bi = b[i], gi = g[i], ri = r[i];
+        const std::uint32_t y = 114u * bi + 587u * gi + 299u * ri;
+        l += y;
+        q += static_cast<std::uint64_t>(y) * y;
+        m += std::min(std::min(bi, gi), ri);
+    }
+    luma += l;
+    squares += q;
+    minimum += m;
+}
+
+/// The same over interleaved pixels. On the interleaved samples: splitting
+/// each row into planes first was 6 times slower (the loads of the
+/// just-stored planes stall).
+template <typename S>
+AVATAR_KERNEL_CLONES void lumaPixelSums(const S* __restrict px, int n, std::uint64_t& luma, std::uint64_t& squares,
+                                        std::uint64_t& minimum) {
     std::uint64_t l = 0, q = 0, m = 0;
     for (int i = 0; i < n; ++i) {
         const std::uint32_t b = px[3 * i], g = px[3 * i + 1], r = px[3 * i + 2];
@@ -41,45 +55,60 @@ AVATAR_KERNEL_CLONES void lumaSums(const S* __restrict px, int n, std::uint64_t&
     minimum += m;
 }
 
-/// Contrast and haze of a BGR image from the exact sums of lumaSums(). On
-/// the interleaved samples: splitting each row into planes first, so that the
-/// sums vectorise, was 6 times slower (the loads of the just-stored planes
-/// stall).
+}  // namespace
+
 template <typename S>
-VisibilityMeasures lumaStatistics(const cv::Mat& small, double full) {
-    std::uint64_t luma = 0, minimum = 0;
-    Wide squares = 0;
-    for (int y = 0; y < small.rows; ++y) {
-        const S* row = small.ptr<S>(y);
-        for (int x = 0; x < small.cols; x += kChunk) {
-            std::uint64_t q = 0;
-            lumaSums(row + 3 * x, std::min(kChunk, small.cols - x), luma, q, minimum);
-            squares += q;
-        }
+void detail::LumaSums::addPlanes(const S* b, const S* g, const S* r, int n) {
+    for (int x = 0; x < n; x += kChunk) {
+        std::uint64_t q = 0;
+        const int k = std::min(kChunk, n - x);
+        lumaPlaneSums(b + x, g + x, r + x, k, luma_, q, minimum_);
+        squares_ += q;
     }
-    // n^2 var = n sum(l^2) - sum(l)^2, exactly (>= 0 by Cauchy-Schwarz), so
-    // the only rounding is the conversion to double.
-    const auto n = static_cast<Wide>(small.total());
-    const Wide spread = n * squares - static_cast<Wide>(luma) * luma;
-    const auto count = static_cast<double>(small.total());
-    VisibilityMeasures m;
-    m.contrast = std::sqrt(static_cast<double>(spread)) / count / (1000.0 * full);
-    m.haze = static_cast<double>(minimum) / count / full;
-    return m;
+    count_ += static_cast<std::uint64_t>(std::max(n, 0));
 }
 
-}  // namespace
+template <typename S>
+void detail::LumaSums::addInterleaved(const S* bgr, int n) {
+    for (int x = 0; x < n; x += kChunk) {
+        std::uint64_t q = 0;
+        const int k = std::min(kChunk, n - x);
+        lumaPixelSums(bgr + 3 * x, k, luma_, q, minimum_);
+        squares_ += q;
+    }
+    count_ += static_cast<std::uint64_t>(std::max(n, 0));
+}
+
+template void detail::LumaSums::addPlanes(const std::uint8_t*, const std::uint8_t*, const std::uint8_t*, int);
+template void detail::LumaSums::addPlanes(const std::uint16_t*, const std::uint16_t*, const std::uint16_t*, int);
+template void detail::LumaSums::addInterleaved(const std::uint8_t*, int);
+template void detail::LumaSums::addInterleaved(const std::uint16_t*, int);
+
+VisibilityMeasures detail::LumaSums::measures(int bitDepth, std::int64_t saturatedPixels, std::size_t pixels) const {
+    if (count_ == 0 || pixels == 0) throw InvalidArgument("visibility: no pixels were measured");
+    const double full = static_cast<double>((1 << bitDepth) - 1);
+    // n^2 var = n sum(l^2) - sum(l)^2, exactly (>= 0 by Cauchy-Schwarz), so
+    // the only rounding is the conversion to double.
+    const Wide spread = static_cast<Wide>(count_) * squares_ - static_cast<Wide>(luma_) * luma_;
+    const auto count = static_cast<double>(count_);
+    VisibilityMeasures m;
+    m.contrast = std::sqrt(static_cast<double>(spread)) / count / (1000.0 * full);
+    m.haze = static_cast<double>(minimum_) / count / full;
+    m.saturatedFraction = static_cast<double>(saturatedPixels) / static_cast<double>(pixels);
+    return m;
+}
 
 VisibilityMeasures detail::visibilityFromReduced(const cv::Mat& small, int bitDepth, std::int64_t saturatedPixels,
                                                 std::size_t pixels) {
     if (small.empty() || small.channels() != 3 || (small.depth() != CV_8U && small.depth() != CV_16U))
         throw InvalidArgument("visibility: the reduced image must be a non-empty CV_8UC3 or CV_16UC3 image, got " +
                               cv::typeToString(small.type()));
-    const double full = static_cast<double>((1 << bitDepth) - 1);
-    VisibilityMeasures m = small.depth() == CV_8U ? lumaStatistics<std::uint8_t>(small, full)
-                                                  : lumaStatistics<std::uint16_t>(small, full);
-    m.saturatedFraction = static_cast<double>(saturatedPixels) / static_cast<double>(pixels);
-    return m;
+    LumaSums sums;
+    for (int y = 0; y < small.rows; ++y) {
+        if (small.depth() == CV_8U) sums.addInterleaved(small.ptr<std::uint8_t>(y), small.cols);
+        else sums.addInterleaved(small.ptr<std::uint16_t>(y), small.cols);
+    }
+    return sums.measures(bitDepth, saturatedPixels, pixels);
 }
 
 VisibilityMeasures measureVisibility(const cv::Mat& bgr, int bitDepth) {
