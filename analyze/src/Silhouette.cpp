@@ -156,6 +156,35 @@ AVATAR_KERNEL_CLONES int featureRow(const std::uint8_t* __restrict above, const 
     return count;
 }
 
+/// cv::floodFill(@p labels, @p seed, @p to) with no tolerance: the
+/// @p eight- (else 4-) connected pixels of the seed's value @p from become
+/// @p to. A scanline fill on the region's own labels: cv::floodFill cleared
+/// a mask of the region's size for every call (a third of its time here).
+void fillComponent(cv::Mat& labels, cv::Point seed, std::uint8_t from, std::uint8_t to, bool eight,
+                   std::vector<cv::Point>& stack) {
+    const int w = labels.cols, h = labels.rows;
+    if (from == to || labels.at<std::uint8_t>(seed) != from) return;
+    stack.assign(1, seed);
+    while (!stack.empty()) {
+        const cv::Point p = stack.back();
+        stack.pop_back();
+        std::uint8_t* row = labels.ptr<std::uint8_t>(p.y);
+        if (row[p.x] != from) continue;  // filled since it was pushed
+        int left = p.x, right = p.x;
+        while (left > 0 && row[left - 1] == from) --left;
+        while (right + 1 < w && row[right + 1] == from) ++right;
+        std::fill(row + left, row + right + 1, to);
+        // Every run of the seed's value touching this one in the rows above and below.
+        const int x0 = eight ? std::max(left - 1, 0) : left, x1 = eight ? std::min(right + 1, w - 1) : right;
+        for (const int ny : {p.y - 1, p.y + 1}) {
+            if (ny < 0 || ny >= h) continue;
+            const std::uint8_t* next = labels.ptr<std::uint8_t>(ny);
+            for (int x = x0; x <= x1; ++x)
+                if (next[x] == from && (x == x0 || next[x - 1] != from)) stack.push_back({x, ny});
+        }
+    }
+}
+
 /// cv::erode (@p erode) or cv::dilate of a 0/255 mask with a 5x5 square and
 /// OpenCV's default border (outside pixels never erode nor dilate), as two
 /// separable passes of plain loops: the region is small and cv::erode's
@@ -228,7 +257,8 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         markRow(ownMask.ptr<std::uint8_t>(roi.y + y) + roi.x, lab.ptr<std::uint8_t>(y), roi.width);
     const cv::Point seed = feature.boundary[kTopLeft] - roi.tl();
     if (!cv::Rect(0, 0, roi.width, roi.height).contains(seed) || lab.at<std::uint8_t>(seed) != 255) return out;
-    cv::floodFill(lab, seed, cv::Scalar(kFeature), nullptr, cv::Scalar(), cv::Scalar(), 8);
+    std::vector<cv::Point> stack;
+    fillComponent(lab, seed, 255, kFeature, true, stack);
     // Pixels of every mask: another target's inside a feature's box (not
     // this feature's), a fragment elsewhere.
     cv::Mat inBoxes(roi.size(), CV_8UC1);
@@ -255,7 +285,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                           lab.ptr<std::uint8_t>(y), roi.width, ownType);
     }
     // The background connected to the frame; what is left of it is holes.
-    cv::floodFill(frame, cv::Point(0, 0), cv::Scalar(kOutside), nullptr, cv::Scalar(), cv::Scalar(), 4);
+    fillComponent(frame, cv::Point(0, 0), kBackground, kOutside, false, stack);
     cv::Mat isFeature(roi.size(), CV_8UC1), holes(roi.size(), CV_8UC1);
     bool anyHole = false;
     std::vector<std::uint8_t> holeRow(static_cast<std::size_t>(roi.height));  // 1: the row has a hole pixel
@@ -275,7 +305,6 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     std::vector<bool> seam{false};
     if (anyHole) {
         holeLabels = cv::Mat::zeros(roi.size(), CV_32S);
-        std::vector<cv::Point> stack;
         for (int y = 0; y < roi.height; ++y)
             for (int x = 0; x < roi.width && holeRow[static_cast<std::size_t>(y)] != 0; ++x) {
                 if (holes.at<std::uint8_t>(y, x) == 0 || holeLabels.at<int>(y, x) != 0) continue;
