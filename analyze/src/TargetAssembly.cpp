@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -101,6 +102,16 @@ struct ViewVerdict {
 log4cpp::Category& logger() { return logging::category("analyze.assembly"); }
 
 bool isRound(TargetShape shape) { return shape == TargetShape::Sphere || shape == TargetShape::Disc; }
+
+/// Whether a silhouette has a hole that something in front of it makes: large
+/// enough and of a colour far enough from the target's, beyond its noise.
+bool holed(const Silhouette& sil, const CompletenessLimits& limits) {
+    for (const Silhouette::Hole& h : sil.holes)
+        if (h.areaPx >= limits.minHolePx && h.colourLog >= limits.minHoleColourLog &&
+            h.colourLog >= limits.holeNoiseFactor * h.noiseLog)
+            return true;
+    return false;
+}
 
 cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalised) {
     return normalizedToPixel(camera, distortNormalized(camera, normalised));
@@ -393,8 +404,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         std::size_t target;
         cv::Rect box[2];
         bool contact[2];
+        int group;  ///< targets of one feature pair (splitMerged()) judge each other themselves
     };
     std::vector<Placed> placed;
+    int group = 0;
     for (std::size_t t = 0; t < config_.targets.targets.size(); ++t) {
         for (const Pair& p : pairs) {
             const Object& l = left[static_cast<std::size_t>(p.left)];
@@ -402,8 +415,14 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             const Object& r = right[static_cast<std::size_t>(p.right)];
             const bool conflict = leftUse[static_cast<std::size_t>(p.left)] > 1 || rightUse[static_cast<std::size_t>(p.right)] > 1;
             Built b = stereoTarget(frame, l, r, p.error, conflict);
-            out.push_back(std::move(b.target));
-            placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {b.contact[0], b.contact[1]}});
+            std::vector<Built> split;
+            if ((b.target.flags & kTargetMerged) && !conflict) split = splitMerged(frame, l, r, p.error);
+            if (split.empty()) split.push_back(std::move(b));
+            ++group;
+            for (Built& one : split) {
+                out.push_back(std::move(one.target));
+                placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {one.contact[0], one.contact[1]}, group});
+            }
         }
         for (std::size_t o = 0; o < left.size(); ++o)
             if (left[o].type == t && leftUse[o] == 0) out.push_back(singleTarget(frame, left[o], Side::Left));
@@ -423,7 +442,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             bool nearer = ta.positionVisionMm.has_value();
             bool any = false;
             for (const Placed& b : placed) {
-                if (&a == &b || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
+                if (&a == &b || a.group == b.group || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
                 any = true;
                 const VisionTarget& tb = out[b.target];
                 // A merged or undecided neighbour's position may be a blend
@@ -520,11 +539,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             });
             const int tolerance = limits_.maxUnsupportedBins;
             v.cut = v.round.cut > tolerance;
-            bool holed = false;
-            for (const Silhouette::Hole& h : sil.holes)
-                holed = holed || (h.areaPx >= limits_.minHolePx && h.colourLog >= limits_.minHoleColourLog &&
-                                  h.colourLog >= limits_.holeNoiseFactor * h.noiseLog);
-            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed;
+            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, limits_);
             // Judged by depth in assemble(); the seam bins are the outline's
             // own, so they leave it complete if it is the nearer one.
             v.contact = v.round.hidden + v.round.seam > tolerance;
@@ -871,6 +886,163 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         }
     }
     return built;
+}
+
+// Two touching spheres of one colour are one feature in each view (merged).
+// Each view's outline is then two sphere cones (fitRoundParts(), as a duck's
+// body and head), each fitted again on its own points as a round target is;
+// the cones pair up across the views in their order along the rows (two
+// touching spheres keep their order unless one is nearly behind the other),
+// and each pair must meet in space within the reprojection limit and agree
+// on the radius. Each sphere is placed by its cone axes, as a whole sphere
+// is. Where the two images overlap the farther sphere is hidden in part (the
+// nearer one's arc crosses the farther's pixels of the same colour, where it
+// shows no edge, but its cone is fixed by the rest). Anything short of that
+// leaves the feature one merged target.
+std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisFrame& frame, const Object& left,
+                                                                 const Object& right, double matchError) const {
+    const auto& types = config_.targets.targets;
+    if (left.type != right.type || !left.unionMask.empty() || !right.unionMask.empty()) return {};
+    const TargetType& type = types[left.type];
+    if (!isRound(type.shape)) return {};
+    // Why it stays one merged target, at debug priority.
+    const auto refuse = [&](const char* why, int side = -1) {
+        if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+            log.debugStream() << type.name << " at L " << left.feature.centroid << ": merged, not split"
+                              << (side == 0 ? " (left view)" : side == 1 ? " (right view)" : "") << ": " << why;
+        return std::vector<Built>{};
+    };
+    struct Sphere {
+        EllipseFit fit;
+        SphereCone cone;
+        bool cut{false}, contact{false};
+        bool holed{false};  ///< the feature has a hole something in front makes (which sphere's, it does not say)
+    };
+    std::array<std::array<Sphere, 2>, 2> views;  // [side][sphere, in the order of their axes' x]
+    const Object* objs[2] = {&left, &right};
+    const int tolerance = limits_.maxUnsupportedBins;
+    for (int s = 0; s < 2; ++s) {
+        const Side side = s == 0 ? Side::Left : Side::Right;
+        const ImageWork& w = frame.at(side);
+        const Object& o = *objs[s];
+        const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
+        const cv::Rect window = searchWindow(type, w.image.size());
+        const Silhouette sil = measureSilhouette(w, o.members[0].type, o.feature, window, limits_.centroidCorrelation);
+        const PartsFit parts = fitRoundParts(camera, sil, limits_.minFitThresholdPx, limits_.partThresholdPx, 2,
+                                             limits_.minPartSided);
+        if (parts.parts.size() != 2 || !parts.parts[0].ok || !parts.parts[1].ok)
+            return refuse("the outline is not two round parts", s);
+        if (shareOutsideParts(camera, parts, sil, limits_.partThresholdPx) > limits_.maxStrayShare)
+            return refuse("pixels outside the two parts", s);
+        for (std::size_t i = 0; i < 2; ++i) {
+            Sphere& sphere = views[static_cast<std::size_t>(s)][i];
+            // Its own points away from the other sphere: at the waist
+            // between the two, mixed pixels bend both outlines.
+            const EllipseFit& other = parts.parts[1 - i];
+            const double otherRadius = 0.25 * (other.ideal.size.width + other.ideal.size.height);
+            std::vector<OutlinePoint> away;
+            for (const OutlinePoint& q : parts.outlines[i]) {
+                const cv::Point2d ideal = normalizePixel(camera, q.px) * camera.fc[0];
+                if (cv::norm(ideal - cv::Point2d(other.ideal.center)) >= otherRadius + limits_.splitWaistPx)
+                    away.push_back(q);
+            }
+            sphere.fit = fitEllipse(camera, away, limits_.minFitThresholdPx);
+            if (!sphere.fit.ok || sphere.fit.rmsPx > limits_.maxFitRmsPx) return refuse("a part's own points fit no ellipse", s);
+            const auto cone = sphereCone(sphere.fit.conic);
+            if (!cone || cone->anisotropy > limits_.maxSphereAnisotropy) return refuse("a part is no sphere's cone", s);
+            sphere.cone = *cone;
+            // Its circle where its own points do not show it: inside the
+            // other sphere (present), else it is not a whole circle.
+            const RoundCompleteness c = roundCompleteness(camera, sphere.fit, parts.outlines[i], [&](const cv::Point2d& px, bool& own) {
+                return sil.probe(px, w.image.size(), window, own);
+            });
+            if (c.missing > tolerance || c.excess) return refuse("a part's circle is not complete", s);
+            sphere.cut = c.cut > tolerance;
+            for (const OutlinePoint& q : parts.outlines[i])
+                sphere.cut = sphere.cut || q.kind == EdgeKind::ImageEdge || q.kind == EdgeKind::WindowEdge;
+            sphere.contact = c.hidden + c.seam > tolerance;
+            sphere.holed = holed(sil, limits_);
+        }
+        auto& pair = views[static_cast<std::size_t>(s)];
+        if (pair[1].cone.axis.x < pair[0].cone.axis.x) std::swap(pair[0], pair[1]);
+    }
+
+    std::vector<Built> out(2);
+    std::array<StereoPoint, 2> points;
+    std::array<double, 2> radii{};
+    for (std::size_t i = 0; i < 2; ++i) {
+        const Sphere& l = views[0][i];
+        const Sphere& r = views[1][i];
+        const auto point = calculator_.triangulateNormalized(l.cone.axis, r.cone.axis);
+        if (!point || !std::isfinite(point->leftMm.z) || point->reprojectionPx > limits_.maxSplitReprojectionPx)
+            return refuse("the parts do not meet in space");
+        const double rl = cv::norm(point->leftMm) * std::sin(l.cone.halfAngle);
+        const double rr = cv::norm(point->rightMm) * std::sin(r.cone.halfAngle);
+        if (std::abs(rl - rr) > limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr))
+            return refuse("the views disagree on a part's radius");
+        radii[i] = 0.5 * (rl + rr);
+        if (type.sizeMm && (2.0 * radii[i] > type.sizeMm->max || 2.0 * radii[i] < type.sizeMm->min))
+            return refuse("a part is not of the type's size");
+        points[i] = *point;
+    }
+    for (std::size_t i = 0; i < 2; ++i) {
+        VisionTarget& target = out[i].target;
+        const StereoPoint& point = points[i];
+        target.type = type.name;
+        target.flags = kTargetStereo | kTargetShapeCorrected;
+        target.model = ShapeModel::Sphere;
+        target.matchError = matchError;
+        for (int s = 0; s < 2; ++s) {
+            const Sphere& own = views[static_cast<std::size_t>(s)][i];
+            const Sphere& other = views[static_cast<std::size_t>(s)][1 - i];
+            const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
+            const auto radiusPx = [](const EllipseFit& f) { return 0.25 * (f.ideal.size.width + f.ideal.size.height); };
+            const double apartPx = cv::norm(own.fit.ideal.center - other.fit.ideal.center);
+            const bool overlap = radiusPx(own.fit) + radiusPx(other.fit) - apartPx > limits_.maxSplitOverlapPx;
+            const cv::Point3d& p = s == 0 ? point.leftMm : point.rightMm;
+            const cv::Point3d& q = s == 0 ? points[1 - i].leftMm : points[1 - i].rightMm;
+            if (own.cut) target.flags |= kTargetCut;
+            if ((overlap && cv::norm(p) > cv::norm(q)) || own.holed)
+                target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+            out[i].contact[s] = own.contact;
+            const cv::Point2d px = toPixel(camera, own.cone.axis);
+            if (s == 0) target.centroidLeftPx = px;
+            else target.centroidRightPx = px;
+            const double areaPx = M_PI * 0.25 * own.fit.ideal.size.width * own.fit.ideal.size.height;
+            if (s == 0) target.areaLeftPx = areaPx;
+            else target.areaRightPx = areaPx;
+        }
+        target.positionVisionMm = point.leftMm;
+        if (point.baseMm && std::isfinite(point.baseMm->x) && std::isfinite(point.baseMm->y) &&
+            std::isfinite(point.baseMm->z))
+            target.positionBaseMm = point.baseMm;
+        target.rayResidualMm = point.rayGapMm;
+        target.rayResidualPx = point.reprojectionPx;
+        const auto axis = [](const cv::Matx33d& conic) -> std::optional<cv::Point2d> {
+            const auto cone = sphereCone(conic);
+            if (!cone) return std::nullopt;
+            return cone->axis;
+        };
+        const auto ml = modelPointCovariance(views[0][i].fit, config_.stereo.left.fc[0], axis);
+        const auto mr = modelPointCovariance(views[1][i].fit, config_.stereo.right.fc[0], axis);
+        if (ml && mr) {
+            const double k = limits_.sphereFitCorrelation;
+            const auto cov = calculator_.covarianceNormalized(views[0][i].cone.axis, views[1][i].cone.axis, *ml * k, *mr * k);
+            bool finite = cov.has_value();
+            if (cov)
+                for (double v : cov->val) finite = finite && std::isfinite(v);
+            if (finite) {
+                target.covarianceVisionMm2 = *cov;
+                if (target.positionBaseMm) target.covarianceBaseMm2 = calculator_.covarianceToBase(*cov);
+            }
+        }
+        if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+            log.debugStream() << type.name << " at L " << target.centroidLeftPx.value_or(cv::Point2d())
+                              << ": sphere " << i + 1 << " of two in one feature, radius " << radii[i]
+                              << " mm, reprojection " << point.reprojectionPx << " px, fits "
+                              << views[0][i].fit.rmsPx << "/" << views[1][i].fit.rmsPx << " px";
+    }
+    return out;
 }
 
 VisionTarget TargetAssembler::singleTarget(const AnalysisFrame& frame, const Object& object, Side side) const {

@@ -10,6 +10,10 @@
 ///   two filters when their union is round (or their types have no model):
 ///   it is reported once, under the type that holds most of it, or as
 ///   ambiguous;
+/// - two touching spheres of one colour (one merged feature in each view)
+///   are two targets when both views show two sphere cones that pair up in
+///   space (TargetAssembler::splitMerged()); the farther one is occluded
+///   where their images overlap;
 /// - the position comes from the shape model that fits (sphere cone axes,
 ///   disc centres), else the centroids; its covariance from the centroids'
 ///   through the triangulation;
@@ -94,6 +98,17 @@ struct CompletenessLimits {
     /// it (what a beak covers).
     double minPartCoverage{0.25};
     double maxPartMissing{0.15};
+    /// Two touching spheres of one colour in one feature (merged) are told
+    /// apart when each view's outline is two sphere cones (fitRoundParts()
+    /// with two parts) that pair up across the views within this RMS
+    /// reprojection error (px) and these radii (maxSphereRadiusMismatch).
+    double maxSplitReprojectionPx{1.0};
+    /// The two spheres' images overlap by more than this (px, along the line
+    /// between their centres): the farther one is hidden in part there.
+    double maxSplitOverlapPx{1.0};
+    /// Each sphere is fitted on its outline points at least this far (px)
+    /// outside the other's circle (the waist's mixed pixels bend both).
+    double splitWaistPx{3.0};
 };
 
 /// Which of @p types' filters (their search windows are ignored) pass the
@@ -137,6 +152,11 @@ private:
     bool undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
     Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
                        bool conflict) const;
+    /// A merged stereo target of a round type as the two spheres it holds,
+    /// when both views show them (splitMerged() in TargetAssembly.cpp says
+    /// what that takes); empty otherwise (it stays one merged target).
+    std::vector<Built> splitMerged(const AnalysisFrame& frame, const Object& left, const Object& right,
+                                   double matchError) const;
     VisionTarget singleTarget(const AnalysisFrame& frame, const Object& object, Side side) const;
 
     AvatarConfig config_;

@@ -396,18 +396,41 @@ TEST(Completeness, BorderCutAndHidden) {
     EXPECT_LT(o.errorMm("front"), 1.0);
 }
 
-// Two spheres of one colour side by side make one feature: merged, not whole.
-TEST(Completeness, TouchingSpheresOfOneColourAreMerged) {
-    render::Scene scene = emptyLab();
-    scene.targets = {target("a", render::Shape::Sphere, {-60, 0, 800}, 30),
-                     target("b", render::Shape::Sphere, {-60 + 58, 0, 800}, 30)};
-    const Outcome o = run(scene, config(TargetShape::Sphere));
-    ASSERT_EQ(o.stereoCount(), 1);
-    for (const VisionTarget& v : o.result.targets) {
-        if (v.flags & kTargetStereo) {
-            EXPECT_TRUE((v.flags & kTargetMerged) && !(v.flags & kTargetWhole)) << targetFlagsText(v.flags);
-        }
+// Two spheres of one colour that touch make one feature in each view. Its
+// outline is two sphere cones there, paired across the views: two targets,
+// each placed by its cones as a sphere alone is. Side by side both are
+// whole; one in front of the other hides part of it, which is then occluded
+// (with its best estimate) while the front one stays whole.
+TEST(Completeness, TouchingSpheresOfOneColourAreTwoTargets) {
+    render::Scene side = emptyLab();
+    side.targets = {target("a", render::Shape::Sphere, {-60, 0, 800}, 30),
+                    target("b", render::Shape::Sphere, {-60 + 60.5, 0, 800}, 30)};
+    const Outcome o = run(side, config(TargetShape::Sphere));
+    ASSERT_EQ(o.frame.at(Side::Left).features[0].size(), 1u) << "the two spheres must make one feature";
+    ASSERT_EQ(o.stereoCount(), 2);
+    for (const char* name : {"a", "b"}) {
+        const auto v = o.of(name);
+        ASSERT_TRUE(v) << name;
+        EXPECT_TRUE((v->flags & kTargetWhole) && !(v->flags & kTargetMerged)) << name << ": " << flagsOf(v);
+        EXPECT_EQ(v->model, ShapeModel::Sphere) << name;
+        EXPECT_LT(o.errorMm(name), 1.0) << name;
+        EXPECT_TRUE(v->covarianceVisionMm2.has_value()) << name;
     }
+
+    render::Scene stacked = emptyLab();
+    stacked.targets = {target("front", render::Shape::Sphere, {-40, 0, 780}, 30),
+                       target("back", render::Shape::Sphere, {-40 + 40, -10, 860}, 30)};
+    const Outcome s = run(stacked, config(TargetShape::Sphere));
+    ASSERT_TRUE(s.truth.target("back").left.occluded && s.truth.target("back").right.occluded);
+    ASSERT_EQ(s.frame.at(Side::Left).features[0].size(), 1u) << "the two spheres must make one feature";
+    const auto f = s.of("front");
+    const auto k = s.of("back");
+    ASSERT_TRUE(f && k);
+    EXPECT_TRUE(f->flags & kTargetWhole) << flagsOf(f);
+    EXPECT_LT(s.errorMm("front"), 1.0);
+    EXPECT_TRUE((k->flags & kTargetOccludedLeft) && (k->flags & kTargetOccludedRight) && !(k->flags & kTargetWhole))
+        << flagsOf(k);
+    EXPECT_LT(s.errorMm("back"), 3.0) << "its best estimate, from the arc it shows";
 }
 
 // One sphere whose halves pass two filters (yellow "sample", gold
