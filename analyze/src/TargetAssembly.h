@@ -105,7 +105,7 @@ struct CompletenessLimits {
     double maxSplitReprojectionPx{1.0};
     /// The two spheres' images overlap by more than this (px, along the line
     /// between their centres): the farther one is hidden in part there.
-    double maxSplitOverlapPx{1.0};
+    double maxSplitOverlapPx{0.25};
     /// Each sphere is fitted on its outline points at least this far (px)
     /// outside the other's circle (the waist's mixed pixels bend both).
     double splitWaistPx{3.0};
