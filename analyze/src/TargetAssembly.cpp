@@ -541,8 +541,12 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             v.cut = v.round.cut > tolerance;
             v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, limits_);
             // Judged by depth in assemble(); the seam bins are the outline's
-            // own, so they leave it complete if it is the nearer one.
-            v.contact = v.round.hidden + v.round.seam > tolerance;
+            // own, so they leave it complete if it is the nearer one. Any
+            // bin at another target counts: a glancing contact of one bin
+            // is where a sliver of it may pass behind its neighbour (seed 20:
+            // three such targets flagged whole, 2-11 px hidden), and a
+            // nearer target stays whole under the depth rule.
+            v.contact = v.round.hidden + v.round.seam > 0;
             // Two round targets in one feature: a waist on either side (or
             // points well outside any one ellipse).
             const double minorRadius = 0.5 * std::min(v.fit.ideal.size.width, v.fit.ideal.size.height);
