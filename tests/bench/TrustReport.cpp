@@ -666,6 +666,10 @@ int main(int argc, char** argv) {
         for (double lo = 500.0; lo < 2500.0; lo += 500.0)
             row("round, " + fmt(lo / 1000.0, 1) + "-" + fmt((lo + 500.0) / 1000.0, 1) + " m", inRange(tally.hits, lo, lo + 500.0, true));
         row("round, 0.5-1.5 m", inRange(tally.hits, 500.0, 1500.0, true));
+        // The floors as a checker that does not separate the shapes would take them.
+        row("all shapes", tally.hits);
+        row("all shapes, 0.5-1.0 m", inRange(tally.hits, 500.0, 1000.0, false));
+        row("all shapes, 0.5-1.5 m", inRange(tally.hits, 500.0, 1500.0, false));
         std::map<std::string, int> models;
         for (const Hit& h : tally.hits)
             ++models[std::string(render::toString(h.record.shape)) + " by " + std::string(toString(h.model))];
