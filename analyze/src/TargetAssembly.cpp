@@ -964,7 +964,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             sphere.cut = c.cut > tolerance;
             for (const OutlinePoint& q : parts.outlines[i])
                 sphere.cut = sphere.cut || q.kind == EdgeKind::ImageEdge || q.kind == EdgeKind::WindowEdge;
-            sphere.contact = c.hidden + c.seam > tolerance;
+            sphere.contact = c.hidden + c.seam > 0;  // any bin, as for a lone round target
             sphere.holed = holed(sil, limits_);
         }
         auto& pair = views[static_cast<std::size_t>(s)];
