@@ -156,35 +156,6 @@ AVATAR_KERNEL_CLONES int featureRow(const std::uint8_t* __restrict above, const 
     return count;
 }
 
-/// cv::floodFill(@p labels, @p seed, @p to) with no tolerance: the
-/// @p eight- (else 4-) connected pixels of the seed's value @p from become
-/// @p to. A scanline fill on the region's own labels: cv::floodFill cleared
-/// a mask of the region's size for every call (a third of its time here).
-void fillComponent(cv::Mat& labels, cv::Point seed, std::uint8_t from, std::uint8_t to, bool eight,
-                   std::vector<cv::Point>& stack) {
-    const int w = labels.cols, h = labels.rows;
-    if (from == to || labels.at<std::uint8_t>(seed) != from) return;
-    stack.assign(1, seed);
-    while (!stack.empty()) {
-        const cv::Point p = stack.back();
-        stack.pop_back();
-        std::uint8_t* row = labels.ptr<std::uint8_t>(p.y);
-        if (row[p.x] != from) continue;  // filled since it was pushed
-        int left = p.x, right = p.x;
-        while (left > 0 && row[left - 1] == from) --left;
-        while (right + 1 < w && row[right + 1] == from) ++right;
-        std::fill(row + left, row + right + 1, to);
-        // Every run of the seed's value touching this one in the rows above and below.
-        const int x0 = eight ? std::max(left - 1, 0) : left, x1 = eight ? std::min(right + 1, w - 1) : right;
-        for (const int ny : {p.y - 1, p.y + 1}) {
-            if (ny < 0 || ny >= h) continue;
-            const std::uint8_t* next = labels.ptr<std::uint8_t>(ny);
-            for (int x = x0; x <= x1; ++x)
-                if (next[x] == from && (x == x0 || next[x - 1] != from)) stack.push_back({x, ny});
-        }
-    }
-}
-
 /// cv::erode (@p erode) or cv::dilate of a 0/255 mask with a 5x5 square and
 /// OpenCV's default border (outside pixels never erode nor dilate), as two
 /// separable passes of plain loops: the region is small and cv::erode's
@@ -220,6 +191,33 @@ void boxMorphology5(const cv::Mat& src, cv::Mat& dst, bool erode) {
 }
 
 }  // namespace
+
+// A scanline fill on the region's own labels: cv::floodFill without a mask
+// cleared a buffer of the region's size for every call (a third of its time here).
+void fillComponent(cv::Mat& labels, cv::Point seed, std::uint8_t from, std::uint8_t to, bool eight,
+                   std::vector<cv::Point>& stack) {
+    const int w = labels.cols, h = labels.rows;
+    if (from == to || labels.at<std::uint8_t>(seed) != from) return;
+    stack.assign(1, seed);
+    while (!stack.empty()) {
+        const cv::Point p = stack.back();
+        stack.pop_back();
+        std::uint8_t* row = labels.ptr<std::uint8_t>(p.y);
+        if (row[p.x] != from) continue;  // filled since it was pushed
+        int left = p.x, right = p.x;
+        while (left > 0 && row[left - 1] == from) --left;
+        while (right + 1 < w && row[right + 1] == from) ++right;
+        std::fill(row + left, row + right + 1, to);
+        // Every run of the seed's value touching this one in the rows above and below.
+        const int x0 = eight ? std::max(left - 1, 0) : left, x1 = eight ? std::min(right + 1, w - 1) : right;
+        for (const int ny : {p.y - 1, p.y + 1}) {
+            if (ny < 0 || ny >= h) continue;
+            const std::uint8_t* next = labels.ptr<std::uint8_t>(ny);
+            for (int x = x0; x <= x1; ++x)
+                if (next[x] == from && (x == x0 || next[x - 1] != from)) stack.push_back({x, ny});
+        }
+    }
+}
 
 EdgeKind Silhouette::probe(const cv::Point2d& px, const cv::Size& image, const cv::Rect& window, bool& own) const {
     own = false;

@@ -79,6 +79,13 @@ struct Silhouette {
     EdgeKind probe(const cv::Point2d& px, const cv::Size& image, const cv::Rect& window, bool& own) const;
 };
 
+/// cv::floodFill(@p labels, @p seed, @p to) with no tolerance, for a CV_8UC1
+/// image (or a view of one): the @p eight- (else 4-) connected pixels of the
+/// seed's value @p from become @p to; nothing when the seed is not @p from.
+/// @p stack is scratch (reused across calls).
+void fillComponent(cv::Mat& labels, cv::Point seed, std::uint8_t from, std::uint8_t to, bool eight,
+                   std::vector<cv::Point>& stack);
+
 /// Measures @p feature of work.masks[@p own] in work.image (the 3-channel
 /// image the masks were computed from). Other targets are the pixels of the
 /// features of every mask (work.features' boxes), other than this one;

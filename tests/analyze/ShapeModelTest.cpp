@@ -15,6 +15,9 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include <cmath>
 #include <optional>
 #include <random>
@@ -111,6 +114,40 @@ Outcome run(const render::Scene& scene, const AvatarConfig& cfg, std::uint64_t s
 }
 
 std::string flagsOf(const std::optional<VisionTarget>& v) { return v ? targetFlagsText(v->flags) : "not found"; }
+
+// The silhouette's fills against cv::floodFill (no tolerance, no mask) as a
+// brute-force reference: random blobs of four labels, views into a larger
+// image, both connectivities, seeds anywhere (on the value filled or not).
+TEST(Silhouette, FillComponentEqualsOpenCVsFloodFill) {
+    std::mt19937 rng(11);
+    std::vector<cv::Point> stack;
+    int filled = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        const int w = 5 + static_cast<int>(rng() % 60), h = 5 + static_cast<int>(rng() % 60);
+        cv::Mat big(h + 4, w + 6, CV_8UC1);
+        // Blobs: random labels smoothed by taking a neighbour's now and then.
+        for (int y = 0; y < big.rows; ++y)
+            for (int x = 0; x < big.cols; ++x) {
+                std::uint8_t v = static_cast<std::uint8_t>(rng() % 4);
+                if (x > 0 && rng() % 3 != 0) v = big.at<std::uint8_t>(y, x - 1);
+                if (y > 0 && rng() % 3 == 0) v = big.at<std::uint8_t>(y - 1, x);
+                big.at<std::uint8_t>(y, x) = v;
+            }
+        const cv::Rect view(3, 2, w, h);
+        const cv::Point seed(static_cast<int>(rng() % static_cast<unsigned>(w)),
+                             static_cast<int>(rng() % static_cast<unsigned>(h)));
+        const bool eight = trial % 2 == 0;
+        const std::uint8_t from = static_cast<std::uint8_t>(rng() % 4), to = 7;
+        cv::Mat ours = big.clone(), theirs = big.clone();
+        cv::Mat oursView = ours(view), theirsView = theirs(view);
+        detail::fillComponent(oursView, seed, from, to, eight, stack);
+        if (theirsView.at<std::uint8_t>(seed) == from)
+            cv::floodFill(theirsView, seed, cv::Scalar(to), nullptr, cv::Scalar(), cv::Scalar(), eight ? 8 : 4);
+        filled += cv::countNonZero(theirs == to) > 0;
+        ASSERT_EQ(cv::countNonZero(ours != theirs), 0) << "trial " << trial << ", " << (eight ? 8 : 4) << "-connected";
+    }
+    EXPECT_GT(filled, 50) << "the seeds must often lie on the value filled";
+}
 
 // A sphere and a disc tilted by 34 degrees, both in a type declared sphere:
 // each is whole and located by the model its silhouettes fit. The disc's
