@@ -74,9 +74,14 @@ inline void prefetchBytes(const void* p, std::size_t bytes, bool forWriting) {
 
 /// Mosaic row @p y of @p in, columns [x, x + n), as floats into @p dst:
 /// byte-swapped when asked, corrected by its sites' factors when there are any.
+/// Row @p y's lighting factors: its own, or its parity's when there are two rows.
+const float* factorRow(const FrontEndInput& in, int y) {
+    return in.factors->ptr<float>(in.factors->rows == in.mosaic.rows ? y : y & 1);
+}
+
 template <typename S>
 void loadSites(const FrontEndInput& in, int y, int x, float* dst, int n, float full) {
-    const float* factor = in.factors != nullptr ? in.factors->ptr<float>(y) + x : nullptr;
+    const float* factor = in.factors != nullptr ? factorRow(in, y) + x : nullptr;
     if constexpr (sizeof(S) == 2) {
         if (in.endianSwap) {
             swapRow(in.mosaic.ptr<std::uint16_t>(y) + x, dst, n);
@@ -431,7 +436,7 @@ public:
                     if (loaded + kPrefetchRows < h) {
                         const int ahead = loaded + kPrefetchRows;
                         prefetchBytes(in.mosaic.ptr<S>(ahead) + c0, static_cast<std::size_t>(m) * sizeof(S), false);
-                        if (in.factors != nullptr)
+                        if (in.factors != nullptr && in.factors->rows == h)  // two rows stay in the cache
                             prefetchBytes(in.factors->ptr<float>(ahead) + c0, static_cast<std::size_t>(m) * sizeof(float), false);
                         for (cv::Mat& mask : out.masks) prefetchBytes(mask.ptr(ahead) + c0, static_cast<std::size_t>(m), true);
                     }
@@ -705,8 +710,11 @@ void checkInput(const FrontEndInput& in) {
     if (in.bitDepth < 1 || in.bitDepth > maxBits)
         throw InvalidArgument("front end: bit depth " + std::to_string(in.bitDepth) + " does not fit " +
                               std::to_string(maxBits) + "-bit samples");
-    if (in.factors != nullptr && (in.factors->type() != CV_32FC1 || in.factors->size() != in.mosaic.size()))
-        throw InvalidArgument("front end: the lighting factors must be a CV_32FC1 image of the mosaic's size");
+    if (in.factors != nullptr &&
+        (in.factors->type() != CV_32FC1 || in.factors->cols != in.mosaic.cols ||
+         (in.factors->rows != in.mosaic.rows && in.factors->rows != 2)))
+        throw InvalidArgument("front end: the lighting factors must be a CV_32FC1 image of the mosaic's size, or "
+                              "its width and two rows");
 }
 
 }  // namespace

@@ -38,7 +38,8 @@ struct FrontEndInput {
     int bitDepth{16};         ///< significant bits (full scale 2^bitDepth - 1)
     bool endianSwap{false};   ///< swap the bytes of 16-bit samples first
     /// The lighting factor of every mosaic site, its colour's (CV_32FC1 of the
-    /// image's size, LightingCorrector::mosaicFactors()); null: no correction.
+    /// image's size, or of two rows: the even and the odd rows' factors,
+    /// LightingCorrector::mosaicFactors()); null: no correction.
     const cv::Mat* factors{nullptr};
     /// The colour tests, compiled for this size and depth; null: no filter.
     const std::vector<ColorTest>* tests{nullptr};

@@ -159,8 +159,12 @@ void LightingCorrector::prepare(cv::Size size) {
 }
 
 void LightingCorrector::prepareMosaic(cv::Size size, BayerPattern pattern) {
-    if (!mosaicFactors_.empty() && mosaicFactors_.size() == size && mosaicPattern_ == pattern) return;
-    mosaicFactors_ = buildFactors(size, &pattern);
+    if (!mosaicFactors_.empty() && mosaicSize_ == size && mosaicPattern_ == pattern) return;
+    // Without a pattern every factor is its channel's gain (exp(0) = 1 and
+    // no template): the first two rows hold every row's values.
+    const bool periodic = !config_.patternEnabled && size.height >= 2;
+    mosaicFactors_ = buildFactors(periodic ? cv::Size(size.width, 2) : size, &pattern);
+    mosaicSize_ = size;
     mosaicPattern_ = pattern;
 }
 

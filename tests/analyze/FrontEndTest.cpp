@@ -301,6 +301,64 @@ TEST(FrontEnd, MosaicFactorsAreEachSitesColoursFactors) {
     EXPECT_EQ(bayerSiteColour(BayerPattern::GR, 0, 1), 0);
 }
 
+// Gains alone (no strobe pattern): a site's factor depends on its row only
+// through the row's parity, so the mosaic factors are two rows, each site's
+// the very value of the three-channel image's at every row; the pass gives
+// the same bits with them as with the factors tiled over the whole image
+// (every stage's output: image, masks, visibility; both sample depths).
+TEST(FrontEnd, GainsAloneTakeTwoRowsOfFactorsAndGiveTheSameBits) {
+    LightingConfig gains;
+    gains.frameAverageEnabled = true;
+    gains.gainsRgb = {1.37, 0.91, 1.13};
+    std::uint64_t seed = 300;
+    for (const int depth : {CV_16U, CV_8U}) {
+        const cv::Size size(64, 48);
+        const int bits = depth == CV_16U ? 12 : 8;
+        LightingCorrector corrector(gains);
+        corrector.prepare(size);
+        corrector.prepareMosaic(size, BayerPattern::GR);
+        const cv::Mat& rows = corrector.mosaicFactors();
+        ASSERT_EQ(rows.size(), cv::Size(size.width, 2));
+        cv::Mat tiled(size, CV_32FC1);
+        for (int y = 0; y < size.height; ++y) {
+            rows.row(y & 1).copyTo(tiled.row(y));
+            for (int x = 0; x < size.width; ++x)
+                ASSERT_EQ(tiled.at<float>(y, x),
+                          corrector.factors().at<cv::Vec3f>(y, x)[bayerSiteColour(BayerPattern::GR, x, y)])
+                    << "at " << x << "," << y;
+        }
+        const std::vector<TargetType> types = filterTypes(size);
+        std::vector<detail::ColorTest> tests;
+        for (const TargetType& t : types) tests.emplace_back(t, size, depth, bits);
+        detail::FrontEndInput in;
+        in.mosaic = mosaicOf(size, depth, bits, seed++);
+        in.pattern = BayerPattern::GR;
+        in.bitDepth = bits;
+        in.tests = &tests;
+        in.visibility = true;
+        detail::FrontEndResult two, full;
+        in.factors = &rows;
+        detail::runFrontEnd(in, two);
+        in.factors = &tiled;
+        detail::runFrontEnd(in, full);
+        expectIdentical(two.bgr, full.bgr, "image");
+        ASSERT_EQ(two.masks.size(), full.masks.size());
+        for (std::size_t t = 0; t < types.size(); ++t) expectIdentical(two.masks[t], full.masks[t], "mask of " + types[t].name);
+        ASSERT_TRUE(two.visibility && full.visibility);
+        EXPECT_EQ(two.visibility->contrast, full.visibility->contrast);
+        EXPECT_EQ(two.visibility->haze, full.visibility->haze);
+        EXPECT_EQ(two.visibility->saturatedFraction, full.visibility->saturatedFraction);
+        // The correction did something: without factors the image differs.
+        in.factors = nullptr;
+        detail::FrontEndResult none;
+        detail::runFrontEnd(in, none);
+        EXPECT_GT(cv::norm(none.bgr, full.bgr, cv::NORM_INF), 0.0);
+        const cv::Mat three(3, size.width, CV_32FC1, cv::Scalar(1.0f));  // neither the image's rows nor two
+        in.factors = &three;
+        EXPECT_THROW(detail::runFrontEnd(in, none), InvalidArgument);
+    }
+}
+
 TEST(FrontEnd, RefusesWhatItDoesNotHandle) {
     detail::FrontEndResult out;
     detail::FrontEndInput in;

@@ -70,7 +70,11 @@ public:
     /// The factor of every site of a @p pattern mosaic of @p size, its
     /// colour's (CV_32FC1), for a correction applied to the mosaic before the
     /// demosaic (the fused front end); built once per size and pattern,
-    /// without the three-channel image. Not thread-safe, like prepare().
+    /// without the three-channel image. Without a strobe pattern (gains
+    /// alone) a site's factor depends on its row only through the row's
+    /// parity: then two rows, of the even and the odd rows (row y's factors
+    /// are row y % 2's, the very values), not a full image to read from
+    /// memory per frame. Not thread-safe, like prepare().
     void prepareMosaic(cv::Size size, BayerPattern pattern);
     const cv::Mat& mosaicFactors() const { return mosaicFactors_; }
 
@@ -84,6 +88,7 @@ private:
     cv::Mat template_;                    ///< CV_32FC3, when templatePath_ is set
     cv::Mat factors_;
     cv::Mat mosaicFactors_;
+    cv::Size mosaicSize_;  ///< the mosaic's the factors are for (two rows of it without a pattern)
     BayerPattern mosaicPattern_{BayerPattern::BG};
 };
 

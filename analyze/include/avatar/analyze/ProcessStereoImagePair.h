@@ -68,7 +68,8 @@ struct AnalysisFrame {
     /// original with what follows.
     bool imagesAroundFeatures{false};
     /// The lighting factor of every mosaic site the front end used (empty: no
-    /// correction) and whether it swapped the samples' bytes: what
+    /// correction; two rows, even and odd, without a strobe pattern:
+    /// LightingCorrector::mosaicFactors()) and whether it swapped the samples' bytes: what
     /// AnalyzeStereoImagePair::workingImages() needs to compute the images again.
     cv::Mat mosaicLightingFactors;
     bool samplesByteSwapped{false};
