@@ -45,6 +45,9 @@ public:
     VisibilityMeasures measures(int bitDepth, std::int64_t saturatedPixels, std::size_t pixels) const;
 
 private:
+    /// @p n pixels whose channels lie @p Stride samples apart.
+    template <int Stride, typename S>
+    void add(const S* b, const S* g, const S* r, int n);
     __extension__ typedef unsigned __int128 Wide;  ///< GCC's and Clang's 128-bit type: n * sum(l^2) of any image
     std::uint64_t count_{0}, luma_{0}, minimum_{0};
     Wide squares_{0};

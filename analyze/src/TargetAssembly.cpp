@@ -938,6 +938,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             return refuse("the outline is not two round parts", s);
         if (shareOutsideParts(camera, parts, sil, limits_.partThresholdPx) > limits_.maxStrayShare)
             return refuse("pixels outside the two parts", s);
+        const bool foreignHole = holed(sil, limits_);
         for (std::size_t i = 0; i < 2; ++i) {
             Sphere& sphere = views[static_cast<std::size_t>(s)][i];
             // Its own points away from the other sphere: at the waist
@@ -965,7 +966,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             for (const OutlinePoint& q : parts.outlines[i])
                 sphere.cut = sphere.cut || q.kind == EdgeKind::ImageEdge || q.kind == EdgeKind::WindowEdge;
             sphere.contact = c.hidden + c.seam > 0;  // any bin, as for a lone round target
-            sphere.holed = holed(sil, limits_);
+            sphere.holed = foreignHole;
         }
         auto& pair = views[static_cast<std::size_t>(s)];
         if (pair[1].cone.axis.x < pair[0].cone.axis.x) std::swap(pair[0], pair[1]);

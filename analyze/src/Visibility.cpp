@@ -20,12 +20,15 @@ namespace {
 /// kChunk pixels (kChunk * (1000 * 65535)^2 < 2^64).
 constexpr int kChunk = 1024;
 
-template <typename S>
-AVATAR_KERNEL_CLONES void lumaPlaneSums(const S* __restrict b, const S* __restrict g, const S* __restrict r, int n,
-                                        std::uint64_t& luma, std::uint64_t& squares, std::uint64_t& minimum) {
+/// Over @p n pixels whose channels lie @p Stride samples apart: 1 for three
+/// planes, 3 for interleaved BGR (read where it is: splitting each row into
+/// planes first was 6 times slower, the loads of the just-stored planes stall).
+template <int Stride, typename S>
+AVATAR_KERNEL_CLONES void lumaKernel(const S* __restrict b, const S* __restrict g, const S* __restrict r, int n,
+                                     std::uint64_t& luma, std::uint64_t& squares, std::uint64_t& minimum) {
     std::uint64_t l = 0, q = 0, m = 0;
     for (int i = 0; i < n; ++i) {
-        const std::uint32_t bi = b[i], gi = g[i], ri = r[i];
+        const std::uint32_t bi = b[Stride * i], gi = g[Stride * i], ri = r[Stride * i];
         const std::uint32_t y = 114u * bi + 587u * gi + 299u * ri;
         l += y;
         q += static_cast<std::uint64_t>(y) * y;
@@ -36,47 +39,27 @@ AVATAR_KERNEL_CLONES void lumaPlaneSums(const S* __restrict b, const S* __restri
     minimum += m;
 }
 
-/// The same over interleaved pixels. On the interleaved samples: splitting
-/// each row into planes first was 6 times slower (the loads of the
-/// just-stored planes stall).
-template <typename S>
-AVATAR_KERNEL_CLONES void lumaPixelSums(const S* __restrict px, int n, std::uint64_t& luma, std::uint64_t& squares,
-                                        std::uint64_t& minimum) {
-    std::uint64_t l = 0, q = 0, m = 0;
-    for (int i = 0; i < n; ++i) {
-        const std::uint32_t b = px[3 * i], g = px[3 * i + 1], r = px[3 * i + 2];
-        const std::uint32_t y = 114u * b + 587u * g + 299u * r;
-        l += y;
-        q += static_cast<std::uint64_t>(y) * y;
-        m += std::min(std::min(b, g), r);
-    }
-    luma += l;
-    squares += q;
-    minimum += m;
-}
-
 }  // namespace
 
-template <typename S>
-void detail::LumaSums::addPlanes(const S* b, const S* g, const S* r, int n) {
+template <int Stride, typename S>
+void detail::LumaSums::add(const S* b, const S* g, const S* r, int n) {
     for (int x = 0; x < n; x += kChunk) {
         std::uint64_t q = 0;
         const int k = std::min(kChunk, n - x);
-        lumaPlaneSums(b + x, g + x, r + x, k, luma_, q, minimum_);
+        lumaKernel<Stride>(b + Stride * x, g + Stride * x, r + Stride * x, k, luma_, q, minimum_);
         squares_ += q;
     }
     count_ += static_cast<std::uint64_t>(std::max(n, 0));
+}
+
+template <typename S>
+void detail::LumaSums::addPlanes(const S* b, const S* g, const S* r, int n) {
+    add<1>(b, g, r, n);
 }
 
 template <typename S>
 void detail::LumaSums::addInterleaved(const S* bgr, int n) {
-    for (int x = 0; x < n; x += kChunk) {
-        std::uint64_t q = 0;
-        const int k = std::min(kChunk, n - x);
-        lumaPixelSums(bgr + 3 * x, k, luma_, q, minimum_);
-        squares_ += q;
-    }
-    count_ += static_cast<std::uint64_t>(std::max(n, 0));
+    add<3>(bgr, bgr + 1, bgr + 2, n);
 }
 
 template void detail::LumaSums::addPlanes(const std::uint8_t*, const std::uint8_t*, const std::uint8_t*, int);
