@@ -110,7 +110,7 @@ private:
     /// The stage's own work: demosaic alone.
     void demosaicOnly(AnalysisFrame& frame, Side side) const;
     bool fusedFor(const AnalysisFrame& frame) const {
-        return frame.layout.format == PixelFormat::Bayer && detail::frontEndHandles(frame.original.image(Side::Left));
+        return canFuse() && frame.layout.format == PixelFormat::Bayer && detail::frontEndHandles(frame.original.image(Side::Left));
     }
 
     /// The coarse pass of a coarse frame: @p side's regions from what it finds

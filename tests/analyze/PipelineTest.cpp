@@ -6,12 +6,14 @@
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/CameraModel.h>
 #include <avatar/common/Error.h>
+#include <avatar/common/ImageUtils.h>
 #include <avatar/config/ConfigXml.h>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <array>
 #include <cmath>
 
 using namespace avatar;
@@ -195,6 +197,42 @@ TEST(Pipeline, ANewStageIsOneClassAndOneName) {
     config.analysis.stages = {"demosaic", "color_filter", "locate_features", "count"};
     AnalyzeStereoImagePair analyzer(config, {}, registry);
     EXPECT_EQ(analyzer.analyze(makeScene().pair, 1).visibilityReason, "features: 4");
+}
+
+TEST(Pipeline, TheDemosaicIsTheConfiguredOneOnOneThreadOrTwo) {
+    // A raw pair of smooth colour and noise: the working images are the
+    // configured method's demosaic (the bilinear one through the fused pass),
+    // on one thread or two.
+    auto config = pipelineConfig();
+    config.camera.bayer = true;
+    config.camera.channels = 1;
+    config.analysis.stages = {"demosaic"};
+    std::array<cv::Mat, 2> raw;
+    cv::RNG rng(7);
+    for (cv::Mat& m : raw) {
+        m.create(config.camera.height, config.camera.width, CV_16UC1);
+        rng.fill(m, cv::RNG::UNIFORM, 0, 4000);
+        for (int y = 0; y < m.rows; ++y)
+            for (int x = 0; x < m.cols; ++x) m.at<std::uint16_t>(y, x) += static_cast<std::uint16_t>(20 * x + 30 * y);
+    }
+    const PairLayout layout{PixelFormat::Bayer, BayerPattern::GR, 16};
+    const StereoImagePair pair(raw[0], raw[1], layout);
+    for (const auto& [algorithm, method] : {std::pair(DemosaicAlgorithm::Bilinear, DemosaicMethod::Bilinear),
+                                            std::pair(DemosaicAlgorithm::EdgeAware, DemosaicMethod::EdgeAware)})
+        for (const bool parallel : {true, false}) {
+            config.analysis.demosaic = algorithm;
+            AnalyzeStereoImagePair analyzer(config);
+            analyzer.setParallel(parallel);
+            analyzer.analyze(pair, 1);
+            for (const Side side : {Side::Left, Side::Right}) {
+                const cv::Mat want = demosaic(pair.image(side), layout.bayerPattern, method);
+                const cv::Mat& got = analyzer.lastFrame().at(side).image;
+                ASSERT_EQ(got.type(), want.type());
+                EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0)
+                    << (method == DemosaicMethod::EdgeAware ? "edge-aware" : "bilinear")
+                    << (parallel ? ", two threads, " : ", one thread, ") << (side == Side::Left ? "left" : "right");
+            }
+        }
 }
 
 TEST(Pipeline, RejectsPairsThatDoNotFitTheCamera) {
