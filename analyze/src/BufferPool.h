@@ -8,6 +8,10 @@
 // A tracking frame writes only its search regions: getZeroedOutside() hands
 // out a buffer that is 0 everywhere else, clearing only what the buffer's
 // last user may have written (the pool remembers it), not the whole image.
+// A user that writes a whole buffer may say where it left non-zero values
+// (wrote()); the next user then learns where the rest is 0 already (a
+// filter's mask is 0 in most rows: the front end writes those again only
+// when they change, instead of streaming 1.2 MB of zeros per mask and frame).
 
 #include <opencv2/core/mat.hpp>
 
@@ -28,6 +32,21 @@ public:
     /// room). Its content is undefined; the caller writes all of it.
     cv::Mat get(cv::Size size, int type) { return take(size, type, {cv::Rect(cv::Point(), size)}, false); }
 
+    /// The same, and in @p dirty where the buffer may hold non-zero values:
+    /// where its last user left them (wrote(), getZeroedOutside()), the whole
+    /// image for a new buffer. Outside @p dirty it is 0.
+    cv::Mat get(cv::Size size, int type, std::vector<cv::Rect>& dirty) {
+        return take(size, type, {cv::Rect(cv::Point(), size)}, false, &dirty);
+    }
+
+    /// The user of @p buffer (handed out by this pool) left non-zero values
+    /// only inside @p rects. Ignored for a buffer the pool does not keep.
+    void wrote(const cv::Mat& buffer, std::vector<cv::Rect> rects) {
+        for (Kept& k : kept_)
+            if (k.buffer.data == buffer.data && k.buffer.size() == buffer.size() && k.buffer.type() == buffer.type())
+                k.written = std::move(rects);
+    }
+
     /// The same, 0 outside @p regions (rectangles inside the image); the
     /// caller writes inside them only. Inside them the content is undefined.
     cv::Mat getZeroedOutside(cv::Size size, int type, const std::vector<cv::Rect>& regions) {
@@ -40,15 +59,18 @@ private:
         std::vector<cv::Rect> written;  ///< where its last user may have left non-zero values
     };
 
-    cv::Mat take(cv::Size size, int type, const std::vector<cv::Rect>& willWrite, bool zeroOutside) {
+    cv::Mat take(cv::Size size, int type, const std::vector<cv::Rect>& willWrite, bool zeroOutside,
+                 std::vector<cv::Rect>* dirty = nullptr) {
         for (Kept& k : kept_)
             if (k.buffer.size() == size && k.buffer.type() == type && k.buffer.u != nullptr &&
                 k.buffer.u->refcount == 1) {
                 if (zeroOutside)
                     for (const cv::Rect& r : uncovered(k.written, willWrite)) clear(k.buffer, r);
+                if (dirty != nullptr) *dirty = std::move(k.written);
                 k.written = willWrite;
                 return k.buffer;
             }
+        if (dirty != nullptr) *dirty = {cv::Rect(cv::Point(), size)};
         cv::Mat fresh(size, type);
         if (zeroOutside) fresh.setTo(0);
         Kept entry{fresh, willWrite};

@@ -336,6 +336,7 @@ public:
           ownColumn(2 * n),
           greenColumn(2 * n),
           scratch(n),
+          verdicts(n),
           samplePlanes(3 * n),
           blockRow(n / 4 + 1),
           full(static_cast<float>((1 << input.bitDepth) - 1)),
@@ -349,7 +350,18 @@ public:
                    out.bgrZeroOutsideRegions;
         out.masks.resize(types);
         masksClear = out.masksZeroOutsideRegions;
-        for (cv::Mat& mask : out.masks) masksClear = prepareImage(mask, mosaic.size(), CV_8UC1) && masksClear;
+        dirtyRows.assign(types, std::vector<std::uint8_t>(static_cast<std::size_t>(h), 1));
+        for (std::size_t t = 0; t < types; ++t) {
+            const bool kept = prepareImage(out.masks[t], mosaic.size(), CV_8UC1);
+            masksClear = kept && masksClear;
+            if (!kept || regional || t >= out.masksDirty.size()) continue;
+            // The rows the buffer's last user may have left non-zero; the rest are 0.
+            std::vector<std::uint8_t>& dirty = dirtyRows[t];
+            std::fill(dirty.begin(), dirty.end(), std::uint8_t{0});
+            for (const cv::Rect& r : out.masksDirty[t])
+                for (int row = std::max(r.y, 0); row < std::min(r.y + r.height, h); ++row)
+                    dirty[static_cast<std::size_t>(row)] = 1;
+        }
         out.maskRows.resize(regional ? 0 : types);
         for (std::size_t t = 0; t < out.maskRows.size(); ++t) {
             MaskRows& spans = out.maskRows[t];
@@ -438,7 +450,9 @@ public:
                         prefetchBytes(in.mosaic.ptr<S>(ahead) + c0, static_cast<std::size_t>(m) * sizeof(S), false);
                         if (in.factors != nullptr && in.factors->rows == h)  // two rows stay in the cache
                             prefetchBytes(in.factors->ptr<float>(ahead) + c0, static_cast<std::size_t>(m) * sizeof(float), false);
-                        for (cv::Mat& mask : out.masks) prefetchBytes(mask.ptr(ahead) + c0, static_cast<std::size_t>(m), true);
+                        for (std::size_t t = 0; t < out.masks.size(); ++t)  // not rows known to be 0
+                            if (dirtyRows[t][static_cast<std::size_t>(ahead)] != 0)
+                                prefetchBytes(out.masks[t].ptr(ahead) + c0, static_cast<std::size_t>(m), true);
                     }
                     loadSites<S>(in, loaded, c0, mosaicRow[loaded % 3] + o, m, full);
                 }
@@ -493,19 +507,24 @@ public:
                     if (inRows && a < e) test.row(b + a, g + a, r + a, mask + a, e - a, scratch.data());
                     continue;
                 }
+                // A row known to be 0 (masksDirty) is written only where its
+                // verdicts are not: they go to a row in the cache first.
+                const bool zero = dirtyRows[t][static_cast<std::size_t>(y)] == 0;
                 if (!inRows) {
-                    std::memset(mask, 0, n);
+                    if (!zero) std::memset(mask, 0, n);
                     continue;
                 }
-                std::memset(mask, 0, static_cast<std::size_t>(win.x));
-                const bool some = test.row(b + win.x, g + win.x, r + win.x, mask + win.x, win.width, scratch.data());
-                std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
+                std::uint8_t* verdict = zero ? verdicts.data() : mask;
+                if (!zero) std::memset(mask, 0, static_cast<std::size_t>(win.x));
+                const bool some = test.row(b + win.x, g + win.x, r + win.x, verdict + win.x, win.width, scratch.data());
+                if (!zero) std::memset(mask + win.x + win.width, 0, static_cast<std::size_t>(w - win.x - win.width));
                 int& first = out.maskRows[t].begin[static_cast<std::size_t>(y)];
                 int& last = out.maskRows[t].end[static_cast<std::size_t>(y)];
-                if (some) nonZeroSpan(mask + win.x, win.width, first, last);
+                if (some) nonZeroSpan(verdict + win.x, win.width, first, last);
                 if (last > first) {
                     first += win.x;
                     last += win.x;
+                    if (zero) std::memcpy(mask + first, verdict + first, static_cast<std::size_t>(last - first));
                 }
             }
 
@@ -546,6 +565,8 @@ private:
     std::vector<float> ownColumn, greenColumn;
     int ownColour[2], otherColour[2];
     std::vector<std::uint8_t> scratch;
+    std::vector<std::uint8_t> verdicts;  ///< a mask row's verdicts, for a row known to be 0
+    std::vector<std::vector<std::uint8_t>> dirtyRows;  ///< per mask and row: may hold non-zero values
     std::vector<S> samplePlanes;
     std::vector<float> blockRow;
     const float full;

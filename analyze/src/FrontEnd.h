@@ -73,6 +73,11 @@ struct FrontEndResult {
     /// (else they are cleared first).
     bool bgrZeroOutsideRegions{false};
     bool masksZeroOutsideRegions{false};
+    /// Per mask, where the caller's buffer may hold non-zero values before a
+    /// whole-image pass (BufferPool::get()); it is 0 elsewhere, and the pass
+    /// writes a row there only where the row's verdicts are not all 0. A mask
+    /// without an entry, or a new buffer, is written whole.
+    std::vector<std::vector<cv::Rect>> masksDirty;
 };
 
 /// What the 2x2-superpixel pass of coarse-to-fine gives (docs/config.md).

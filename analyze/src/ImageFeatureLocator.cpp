@@ -429,6 +429,21 @@ void detail::nonZeroSpan(const std::uint8_t* row, int n, int& begin, int& end) {
     end = e;
 }
 
+std::vector<cv::Rect> detail::nonZeroBands(const MaskRows& rows, int width) {
+    std::vector<cv::Rect> bands;
+    const int h = static_cast<int>(rows.begin.size());
+    for (int y = 0; y < h;) {
+        if (rows.end[static_cast<std::size_t>(y)] <= rows.begin[static_cast<std::size_t>(y)]) {
+            ++y;
+            continue;
+        }
+        const int y0 = y;
+        while (y < h && rows.end[static_cast<std::size_t>(y)] > rows.begin[static_cast<std::size_t>(y)]) ++y;
+        bands.emplace_back(0, y0, width, y - y0);
+    }
+    return bands;
+}
+
 int detail::erodeRestoreInPlace(cv::Mat& mask, int kernelSize, const MaskRows* rows, MaskRows& kept) {
     requireMask(mask, "erodeRestore");
     requireKernel(kernelSize);

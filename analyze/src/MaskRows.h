@@ -34,6 +34,10 @@ struct MaskRows {
     }
 };
 
+/// The bands of consecutive rows of @p rows that are not empty, each as wide
+/// as the mask (@p width): where the mask may be non-zero, in a few rectangles.
+std::vector<cv::Rect> nonZeroBands(const MaskRows& rows, int width);
+
 /// The span of the non-zero bytes of @p row (@p n of them) as [begin, end),
 /// begin == end == 0 when there is none. Reads the row once when it is empty.
 void nonZeroSpan(const std::uint8_t* row, int n, int& begin, int& end);

@@ -532,8 +532,13 @@ detail::FrontEndInput DemosaicStage::fusedInput(AnalysisFrame& frame, Side side,
     if (in.writeImage) out.bgr = buffer(images_[i], CV_MAKETYPE(mosaic.depth(), 3));
     out.bgrZeroOutsideRegions = out.masksZeroOutsideRegions = true;
     out.masks.resize(tests_.size());
-    if (in.tests != nullptr)
-        for (cv::Mat& m : out.masks) m = buffer(masks_[i], CV_8UC1);
+    out.masksDirty.clear();
+    if (in.tests != nullptr) {
+        if (regions.empty()) out.masksDirty.resize(tests_.size());  // where each buffer is not 0 yet
+        for (std::size_t t = 0; t < out.masks.size(); ++t)
+            out.masks[t] = regions.empty() ? masks_[i].get(mosaic.size(), CV_8UC1, out.masksDirty[t])
+                                           : buffer(masks_[i], CV_8UC1);
+    }
     return in;
 }
 
@@ -547,7 +552,13 @@ void DemosaicStage::storeFused(AnalysisFrame& frame, Side side, detail::FrontEnd
         work.visibility = *coarsePass_[i].visibility;
     if (filter_ != nullptr) {
         maskRows_[i] = std::move(out.maskRows);
-        for (const cv::Mat& mask : work.masks) written_[i].push_back(mask.data);
+        for (std::size_t t = 0; t < work.masks.size(); ++t) {
+            written_[i].push_back(work.masks[t].data);
+            // A whole-image pass: the pool learns the bands of rows it left
+            // non-zero (the stages after it only clear mask pixels).
+            if (t < maskRows_[i].size() && maskRows_[i][t].describes(work.masks[t]))
+                masks_[i].wrote(work.masks[t], detail::nonZeroBands(maskRows_[i][t], work.masks[t].cols));
+        }
     }
 }
 

@@ -210,6 +210,30 @@ void checkCase(const Case& c, std::uint64_t seed) {
     EXPECT_EQ(out.bgr.data, image);
     expectIdentical(out.bgr, bgr, "image, second run");
 
+    // Mask buffers known to be 0 outside some bands of rows (masksDirty, as
+    // a BufferPool says): the bands hold stale values and are written again;
+    // elsewhere a row is written only where its verdicts are on. The same masks.
+    {
+        detail::FrontEndResult known;
+        known.bgr = out.bgr.clone();
+        const std::vector<cv::Rect> dirty{{0, 0, c.size.width, 1}, {0, c.size.height / 3, c.size.width, c.size.height / 4 + 1}};
+        for (std::size_t t = 0; t < masks.size(); ++t) {
+            cv::Mat stale = cv::Mat::zeros(c.size, CV_8UC1);
+            for (const cv::Rect& r : dirty) stale(r & cv::Rect(cv::Point(), c.size)).setTo(77);
+            known.masks.push_back(stale);
+            known.masksDirty.push_back(dirty);
+        }
+        std::vector<const uchar*> buffers;
+        for (const cv::Mat& m : known.masks) buffers.push_back(m.data);
+        detail::runFrontEnd(in, known);
+        for (std::size_t t = 0; t < masks.size(); ++t) {
+            EXPECT_EQ(known.masks[t].data, buffers[t]);  // written in place
+            expectIdentical(known.masks[t], masks[t], "mask of " + types[t].name + ", rows known to be 0");
+            EXPECT_EQ(known.maskRows[t].begin, out.maskRows[t].begin);
+            EXPECT_EQ(known.maskRows[t].end, out.maskRows[t].end);
+        }
+    }
+
     // Two images of a pair taking turns over strips of rows (one thread,
     // one read of each factor row): each exactly what its own pass gives.
     detail::FrontEndInput other = in;
@@ -513,6 +537,48 @@ TEST(BufferPool, ZeroedOutsideClearsWhatTheLastUserWrote) {
     }
     cv::Mat again = pool.getZeroedOutside(size, CV_8UC1, first);
     EXPECT_TRUE(outsideIsZero(again, first));
+}
+
+TEST(BufferPool, SaysWhereABufferMayBeNonZero) {
+    detail::BufferPool pool(2);
+    const cv::Size size(50, 40);
+    const cv::Rect whole(cv::Point(), size);
+    std::vector<cv::Rect> dirty;
+    const uchar* address = nullptr;
+    {
+        cv::Mat a = pool.get(size, CV_8UC1, dirty);
+        EXPECT_EQ(dirty, std::vector<cv::Rect>{whole});  // new: anything
+        address = a.data;
+        a.setTo(0);
+        a(cv::Rect(0, 10, 50, 3)).setTo(255);
+        pool.wrote(a, {cv::Rect(0, 10, 50, 3)});
+    }
+    {
+        cv::Mat b = pool.get(size, CV_8UC1, dirty);
+        EXPECT_EQ(b.data, address);
+        EXPECT_EQ(dirty, std::vector<cv::Rect>{cv::Rect(0, 10, 50, 3)});  // what its last user said
+        b.setTo(1);  // and says nothing: the whole image, as handed out
+    }
+    {
+        cv::Mat c = pool.get(size, CV_8UC1, dirty);
+        EXPECT_EQ(dirty, std::vector<cv::Rect>{whole});
+        c.setTo(0);
+        c(cv::Rect(5, 5, 4, 4)).setTo(3);
+        pool.wrote(c, {cv::Rect(5, 5, 4, 4)});
+    }
+    // A tracking frame's buffer after it: cleared only where that user wrote.
+    const std::vector<cv::Rect> regions{{20, 20, 10, 10}};
+    cv::Mat d = pool.getZeroedOutside(size, CV_8UC1, regions);
+    EXPECT_EQ(d.data, address);
+    cv::Mat outside = d.clone();
+    outside(regions[0]).setTo(0);
+    EXPECT_EQ(cv::countNonZero(outside), 0);
+    // A buffer the pool does not hand out is not its to describe.
+    cv::Mat foreign(size, CV_8UC1, cv::Scalar(0));
+    pool.wrote(foreign, {});
+    d.release();
+    EXPECT_EQ(pool.get(size, CV_8UC1, dirty).data, address);
+    EXPECT_EQ(dirty, regions);
 }
 
 }  // namespace

@@ -31,7 +31,8 @@
 //                             chain's; counters give the baseline's median and
 //                             the ratio baseline / chain measured under the same load,
 //                             in wall time (speedup) and in CPU time of all
-//                             threads (cpu_ms, baseline_cpu_ms, cpu_speedup).
+//                             threads (cpu_ms, baseline_cpu_ms, cpu_speedup;
+//                             cpu_<stage>_ms: each stage's CPU median, both threads).
 //   PipelineSerialVsBaseline/<input> the same with the chain on one thread.
 //   PipelineFresh/lab_*       one thread, cycling through deep copies of the
 //                             pair (64 MB or more), so every frame's mosaics
@@ -310,15 +311,17 @@ std::string check(const Input& in, const Found& f) {
 /// Per-stage timings of the iterations of one run, reported as medians.
 class StageTimes {
 public:
-    void add(const VisionTargets& result) {
-        for (const StageTiming& t : result.timings) {
+    void add(const VisionTargets& result) { add(result.timings); }
+    void add(const std::vector<StageTiming>& timings) {
+        for (const StageTiming& t : timings) {
             auto it = std::find_if(stages_.begin(), stages_.end(), [&](const auto& s) { return s.first == t.stage; });
             if (it == stages_.end()) it = stages_.insert(stages_.end(), {t.stage, {}});
             it->second.push_back(t.milliseconds);
         }
     }
-    void report(benchmark::State& state) const {
-        for (const auto& [stage, times] : stages_) state.counters[stage + "_ms"] = median(times);
+    /// Each stage's median as the counter "<prefix><stage>_ms".
+    void report(benchmark::State& state, const std::string& prefix = "") const {
+        for (const auto& [stage, times] : stages_) state.counters[prefix + stage + "_ms"] = median(times);
     }
     double medianOf(const std::string& stage) const {
         for (const auto& [name, times] : stages_)
@@ -574,7 +577,7 @@ void BM_PipelineVsBaseline(benchmark::State& state, const std::string& name, boo
     AnalyzeStereoImagePair chain(in.config);
     chain.setParallel(parallel);
     Baseline baseline(in.config);
-    StageTimes chainTimes, baselineTimes;
+    StageTimes chainTimes, baselineTimes, chainCpuTimes;
     for (std::uint64_t i = 0; i < 2; ++i) chain.analyze(in.pair, i);
     baseline.run(in.pair, baselineTimes);
     baselineTimes = {};
@@ -583,6 +586,7 @@ void BM_PipelineVsBaseline(benchmark::State& state, const std::string& name, boo
     for (auto _ : state) {
         const VisionTargets result = chain.analyze(in.pair, iteration++);
         chainTimes.add(result);
+        chainCpuTimes.add(chain.lastCpuTimings());
         chainCpu.push_back(chain.lastCpuTimings().back().milliseconds);  // both of its threads
         state.SetIterationTime(result.timings.back().milliseconds / 1000.0);
         const double c0 = processCpuMs();
@@ -598,6 +602,7 @@ void BM_PipelineVsBaseline(benchmark::State& state, const std::string& name, boo
     state.counters["cpu_ms"] = oursCpu;
     state.counters["baseline_cpu_ms"] = theirsCpu;
     state.counters["cpu_speedup"] = oursCpu > 0.0 ? theirsCpu / oursCpu : 0.0;
+    chainCpuTimes.report(state, "cpu_");  // each stage's, both threads
 }
 
 /// Deep copies of @p pair, together at least 64 MB (twice the L3 cache):
