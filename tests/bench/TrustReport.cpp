@@ -597,13 +597,33 @@ int main(int argc, char** argv) {
         Tally tally;
         const auto set = scenes(o.scenes, o.seed, scorpion.stereo, sensor);
         int truthTargets = 0;
+        // Recall by the scene's conditions and by the frame's visibility
+        // verdict: whole in truth, reported whole.
+        std::map<std::string, std::pair<int, int>> byCondition, byVerdict;
         for (std::size_t k = 0; k < set.size(); ++k) {
             const auto rr = renderScene(set[k], scorpion.stereo, sensor, renderSeed(o.seed, k));
             truthTargets += static_cast<int>(rr.truth.targets.size());
             if (o.verbose) std::fprintf(stderr, "== %s\n", rr.truth.sceneName.c_str());
             const VisionTargets result = analysis.analyze(rr.pair, k);
             const std::size_t falsesBefore = tally.falses.size(), missesBefore = tally.misses.size();
+            const int wholeBefore = tally.truthWhole, recalledBefore = tally.recalled;
             judgeScene(set[k], rr.truth, result, scorpion.stereo, tally);
+            {
+                const render::Lighting& li = set[k].lighting;
+                std::string condition;
+                const auto add = [&](bool on, const char* name) {
+                    if (on) condition += (condition.empty() ? "" : " + ") + std::string(name);
+                };
+                add(li.attenuationPerM[0] > 0.0 || li.attenuationPerM[1] > 0.0 || li.attenuationPerM[2] > 0.0, "water");
+                add(li.darknessFactor < 1.0, "dark");
+                add(li.turbidityPerM > 0.0, "turbid");
+                if (condition.empty()) condition = "clear";
+                const std::string verdict = result.visibility == Visibility::Poor ? "poor" : "good";
+                for (auto* table : {&byCondition[condition], &byVerdict[verdict]}) {
+                    table->first += tally.truthWhole - wholeBefore;
+                    table->second += tally.recalled - recalledBefore;
+                }
+            }
             if (!o.dumpDir.empty() && (tally.falses.size() > falsesBefore || tally.misses.size() > missesBefore)) {
                 std::vector<std::string> names;
                 for (std::size_t f = falsesBefore; f < tally.falses.size(); ++f) names.push_back(tally.falses[f]);
@@ -654,6 +674,13 @@ int main(int argc, char** argv) {
                     fmt(tally.truthWhole ? 100.0 * tally.recalled / tally.truthWhole : NAN).c_str(), tally.reportedAny,
                     tally.stereo, tally.whole, tally.wholeSubPixelHidden, tally.falseWhole, tally.falseWholeHidden1pc, tally.falseWholeFar, tally.wholeFarOff,
                     tally.wholeSpurious, tally.wholeWrongMatch, tally.wholeWrongType, tally.duplicates);
+        std::printf("\nRecall by the scene's conditions and by the frame's visibility verdict:\n\n");
+        std::printf("| scenes | whole in truth | reported whole | recall %% |\n|---|---|---|---|\n");
+        for (const auto* table : {&byCondition, &byVerdict})
+            for (const auto& [name, counts] : *table)
+                std::printf("| %s%s | %d | %d | %s |\n", table == &byVerdict ? "visibility " : "", name.c_str(),
+                            counts.first, counts.second,
+                            fmt(counts.first ? 100.0 * counts.second / counts.first : NAN).c_str());
         std::printf("\n3-D error of whole targets (mm; depth = signed median z error; err/sigma = median of error over the predicted sigma):\n\n");
         std::printf("| %-28s | %4s | %6s | %6s | %6s | %7s | %7s |\n", "targets", "n", "median", "p95", "max", "depth",
                     "err/sig");
