@@ -348,6 +348,19 @@ int freeConcavities(const Silhouette& silhouette, double minDepthPx) {
     return count;
 }
 
+std::optional<std::pair<double, double>> conicRowRange(const cv::Matx33d& conic, const cv::Matx33d& rect) {
+    bool invertible = false;
+    const cv::Matx33d dual = conic.inv(cv::DECOMP_LU, &invertible);
+    if (!invertible) return std::nullopt;
+    const cv::Vec3d a = rect.t() * cv::Vec3d(0.0, 1.0, 0.0), b = rect.t() * cv::Vec3d(0.0, 0.0, 1.0);
+    // (a - v b)^T Q^-1 (a - v b) = 0
+    const double qa = b.dot(dual * b), qb = -2.0 * a.dot(dual * b), qc = a.dot(dual * a);
+    const double disc = qb * qb - 4.0 * qa * qc;
+    if (!(qa != 0.0) || !(disc > 0.0) || !std::isfinite(disc)) return std::nullopt;
+    const double r1 = (-qb - std::sqrt(disc)) / (2.0 * qa), r2 = (-qb + std::sqrt(disc)) / (2.0 * qa);
+    return std::make_pair(std::min(r1, r2), std::max(r1, r2));
+}
+
 std::optional<SphereCone> sphereCone(const cv::Matx33d& conic) {
     cv::Vec3d l;
     cv::Matx33d v;

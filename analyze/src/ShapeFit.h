@@ -25,6 +25,7 @@
 
 #include <functional>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace avatar::detail {
@@ -135,6 +136,12 @@ struct SphereCone {
     double anisotropy{0.0};  ///< |l1 - l2| / |l1 + l2| * 2 of the two same-sign eigenvalues: 0 for a sphere
 };
 std::optional<SphereCone> sphereCone(const cv::Matx33d& conic);
+
+/// The least and greatest rectified rows v = q_y / q_z (q = @p rect x) of
+/// the ellipse @p conic (undistorted normalised coordinates, x^T Q x = 0):
+/// the two rows whose lines through the image, rect^T (0, 1, -v), touch it
+/// (l^T Q^-1 l = 0, a quadratic in v). Null when there are not two.
+std::optional<std::pair<double, double>> conicRowRange(const cv::Matx33d& conic, const cv::Matx33d& rect);
 
 /// The two candidate unit normals (camera frame, pointing towards the
 /// camera) of a circle whose image is @p conic.

@@ -828,6 +828,12 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     // lacks a part there (or the other holds more than the object: a
     // neighbour run into it in that view only); either way it is not whole.
     // The area and extent checks cannot see a cap this small.
+    // Where a view's extreme lies on a contact with another target, its
+    // outline there is the two colours' mixed pixels (an orange edge against
+    // yellow passes the orange filter a pixel or more beyond the edge): a
+    // round target whose model fits both views takes its ellipse's tangent
+    // row at that end instead (the contact itself is judged by depth below).
+    const bool byModel = round && views[0].modelUsable && views[1].modelUsable;
     const auto rows = [&](int s) {
         const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
         const cv::Matx33d& rect = s == 0 ? rectifyLeft_ : rectifyRight_;
@@ -841,13 +847,23 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // rows (the rectifying rotation and the lens turn rows by a few
         // degrees at most): only those points are undistorted.
         const double band = 2.0 + 0.15 * (bottom - top);
+        bool loContact = false, hiContact = false;
         for (const OutlinePoint& p : outline) {
             if (p.px.y > top + band && p.px.y < bottom - band) continue;
             const cv::Point2d n = normalizePixel(camera, p.px);
             const cv::Vec3d q = rect * cv::Vec3d(n.x, n.y, 1.0);
             if (q[2] <= 0.0) continue;
-            lo = std::min(lo, q[1] / q[2]);
-            hi = std::max(hi, q[1] / q[2]);
+            const double row = q[1] / q[2];
+            if (row < lo) loContact = p.kind == EdgeKind::Contact;
+            if (row > hi) hiContact = p.kind == EdgeKind::Contact;
+            lo = std::min(lo, row);
+            hi = std::max(hi, row);
+        }
+        if (byModel && (loContact || hiContact)) {
+            if (const auto range = conicRowRange(views[s].fit.conic, rect)) {
+                if (loContact) lo = range->first;
+                if (hiContact) hi = range->second;
+            }
         }
         return std::make_pair(lo, hi);
     };

@@ -266,6 +266,38 @@ TEST(ShapeModel, TheSeamsEndIsNotASecondObjectButASecondObjectBesideItIs) {
     EXPECT_TRUE(verdict(16, 19, 2.0).excess) << "2 px outside 17-22 px from the seam: an object";
 }
 
+// The rectified rows an ellipse spans (the epipolar tangency of a round
+// target whose end is a contact): the rows of the two lines of the
+// rectified pencil that touch it, against 20,000 points along it.
+TEST(ShapeModel, AConicsRectifiedRowsAreItsTangentRows) {
+    // A rectifying rotation of a few degrees about each axis.
+    const double ax = 0.02, ay = -0.03, az = 0.05;
+    const cv::Matx33d rx(1, 0, 0, 0, std::cos(ax), -std::sin(ax), 0, std::sin(ax), std::cos(ax));
+    const cv::Matx33d ry(std::cos(ay), 0, std::sin(ay), 0, 1, 0, -std::sin(ay), 0, std::cos(ay));
+    const cv::Matx33d rz(std::cos(az), -std::sin(az), 0, std::sin(az), std::cos(az), 0, 0, 0, 1);
+    const cv::Matx33d rect = rz * ry * rx;
+    for (const cv::RotatedRect& e : {cv::RotatedRect({0.1f, -0.05f}, {0.16f, 0.10f}, 30.f),
+                                     cv::RotatedRect({-0.3f, 0.25f}, {0.04f, 0.05f}, -70.f),
+                                     cv::RotatedRect({0.0f, 0.0f}, {0.3f, 0.3f}, 0.f)}) {
+        const auto range = detail::conicRowRange(detail::ellipseConic(e, 1.0, {0.0, 0.0}), rect);
+        ASSERT_TRUE(range.has_value());
+        const double th = e.angle * CV_PI / 180.0;
+        const cv::Vec2d u(std::cos(th), std::sin(th)), v(-std::sin(th), std::cos(th));
+        double lo = 1e300, hi = -1e300;
+        for (int i = 0; i < 20000; ++i) {
+            const double t = 2.0 * CV_PI * i / 20000.0;
+            const cv::Vec2d x = cv::Vec2d(e.center.x, e.center.y) + 0.5 * e.size.width * std::cos(t) * u +
+                                0.5 * e.size.height * std::sin(t) * v;
+            const cv::Vec3d q = rect * cv::Vec3d(x[0], x[1], 1.0);
+            lo = std::min(lo, q[1] / q[2]);
+            hi = std::max(hi, q[1] / q[2]);
+        }
+        EXPECT_NEAR(range->first, lo, 1e-7);
+        EXPECT_NEAR(range->second, hi, 1e-7);
+    }
+    EXPECT_FALSE(detail::conicRowRange(cv::Matx33d::zeros(), rect).has_value());
+}
+
 TEST(ShapeModel, FitCovarianceMatchesTheSpreadOfNoisyOutlines) {
     const AvatarConfig cfg = config(TargetShape::Sphere);
     CameraIntrinsics camera = cfg.stereo.left;
@@ -431,6 +463,25 @@ TEST(Completeness, BorderCutAndHidden) {
     const auto f = o.of("front");
     EXPECT_TRUE(f && (f->flags & kTargetWhole)) << flagsOf(f);
     EXPECT_LT(o.errorMm("front"), 1.0);
+}
+
+// A yellow sphere in front of a gold one, over its top in the left image,
+// its lowest outline there on the contact: it stays whole (the epipolar
+// tangency at a contact end comes from its ellipse when its model fits);
+// the one behind is occluded.
+TEST(Completeness, ATargetInFrontKeepsItsEndsWhereItTouchesAnother) {
+    render::Scene scene = emptyLab();
+    scene.targets = {target("behind", render::Shape::Sphere, {200, -150, 900}, 40, kGold, "arm_marker"),
+                     target("front", render::Shape::Sphere, {0, 0, 0}, 22)};
+    scene.targets[1].centreMm = cv::Vec3d(200, -150, 900) * 0.6 + cv::Vec3d(0, -36, 0);
+    const Outcome o = run(scene, config(TargetShape::Sphere));
+    ASSERT_TRUE(o.truth.target("behind").left.occluded);
+    ASSERT_FALSE(o.truth.target("front").left.occluded || o.truth.target("front").right.occluded);
+    const auto f = o.of("front");
+    EXPECT_TRUE(f && (f->flags & kTargetWhole)) << flagsOf(f);
+    EXPECT_LT(o.errorMm("front"), 1.0);
+    const auto b = o.of("behind");
+    EXPECT_TRUE(b && (b->flags & kTargetOccludedLeft) && !(b->flags & kTargetWhole)) << flagsOf(b);
 }
 
 // Two spheres of one colour that touch make one feature in each view. Its
