@@ -466,9 +466,10 @@ TEST(Completeness, BorderCutAndHidden) {
 }
 
 // A yellow sphere in front of a gold one, over its top in the left image,
-// its lowest outline there on the contact: it stays whole (the epipolar
-// tangency at a contact end comes from its ellipse when its model fits);
-// the one behind is occluded.
+// so that its lowest outline there is the contact: it stays whole, and the
+// one behind is occluded. (These two colours leave no mixed pixels beyond
+// the edge; the ellipse's rows at such an end are tested above, and the
+// orange-against-yellow case is measured by trust_report, docs/accuracy.md.)
 TEST(Completeness, ATargetInFrontKeepsItsEndsWhereItTouchesAnother) {
     render::Scene scene = emptyLab();
     scene.targets = {target("behind", render::Shape::Sphere, {200, -150, 900}, 40, kGold, "arm_marker"),
