@@ -62,7 +62,7 @@ AnalyzeStereoImagePair::AnalyzeStereoImagePair(const AvatarConfig& config,
         names_.push_back(name);
     }
     detail::fuseFrontEnd(stages_);
-    worker_ = std::make_unique<Worker>();
+    parallel_ = config_.analysis.threads == 2;
     tracker_ = std::make_unique<detail::RegionTracker>(config_.analysis.tracking,
                                                       config_.analysis.coarseToFine.enabled);
     logging::category("analyze").info("pipeline: %zu stages, %zu target types", stages_.size(),
@@ -143,6 +143,7 @@ VisionTargets AnalyzeStereoImagePair::analyze(const StereoImagePair& pair, std::
                 }
             };
             if (parallel_) {
+                if (!worker_) worker_ = std::make_unique<Worker>();
                 auto right = worker_->submit([&] {
                     Laps own;
                     sideWork(Side::Right, own, nullptr, rightCpu);

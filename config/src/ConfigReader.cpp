@@ -616,7 +616,7 @@ CoarseToFineConfig readCoarseToFine(Reader& r, const XMLElement* el, const std::
 
 AnalysisConfig readAnalysis(Reader& r, const XMLElement* el, const std::string& path) {
     const Section s(r, el, path,
-                    {"stages", "demosaic", "centroid", "triangulation", "visibility", "tracking", "coarseToFine"});
+                    {"stages", "demosaic", "centroid", "triangulation", "visibility", "tracking", "coarseToFine", "threads"});
     AnalysisConfig a;
     s.getOptional("stages", a.stages, readWords);
     s.getOptional("demosaic", a.demosaic, readEnum<DemosaicAlgorithm>);
@@ -625,6 +625,7 @@ AnalysisConfig readAnalysis(Reader& r, const XMLElement* el, const std::string& 
     s.getOptional("visibility", a.visibility, readVisibility);
     s.getOptional("tracking", a.tracking, readTracking);
     s.getOptional("coarseToFine", a.coarseToFine, readCoarseToFine);
+    s.getOptional("threads", a.threads, readInt);
     return a;
 }
 

@@ -451,6 +451,7 @@ void validateAnalysis(const Checker& k, const AnalysisConfig& a) {
     k.intBetween(a.tracking.fullFrameEvery, 1, 1000000, p + "/tracking/fullFrameEvery");
     k.intBetween(a.tracking.marginPx, 8, 100000, p + "/tracking/marginPx");
     k.intBetween(a.coarseToFine.marginPx, 8, 100000, p + "/coarseToFine/marginPx");
+    k.intBetween(a.threads, 1, 2, p + "/threads");
 }
 
 void validateServo(const Checker& k, const ServoConfig& c, const TargetConfig* targets) {

@@ -237,6 +237,7 @@ void writeAnalysis(Writer& w, const AnalysisConfig& a) {
     w.boolean("enabled", a.coarseToFine.enabled);
     w.integer("marginPx", a.coarseToFine.marginPx);
     w.close();
+    w.integer("threads", a.threads);
     w.close();
 }
 

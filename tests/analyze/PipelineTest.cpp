@@ -15,6 +15,7 @@
 
 #include <array>
 #include <cmath>
+#include <filesystem>
 
 using namespace avatar;
 
@@ -106,8 +107,9 @@ TEST(Pipeline, TriangulatesDiscsToTheirTruePositions) {
 
 TEST(Pipeline, ParallelAndSerialRunsGiveIdenticalResults) {
     const Scene scene = makeScene();
-    AnalyzeStereoImagePair parallel(pipelineConfig()), serial(pipelineConfig());
-    serial.setParallel(false);  // the front end runs the two images in turns over the same rows
+    AvatarConfig two = pipelineConfig();
+    two.analysis.threads = 2;
+    AnalyzeStereoImagePair parallel(two), serial(pipelineConfig());  // serial: the default, one thread
     for (std::uint64_t i = 1; i <= 3; ++i) {  // buffers reused from the second frame on
         const auto a = parallel.analyze(scene.pair, i);
         const auto b = serial.analyze(scene.pair, i);
@@ -124,6 +126,47 @@ TEST(Pipeline, ParallelAndSerialRunsGiveIdenticalResults) {
             EXPECT_EQ(p.visibility.saturatedFraction, q.visibility.saturatedFraction) << toString(side);
         }
     }
+}
+
+namespace {
+
+/// The threads of this process (Linux: the entries of /proc/self/task).
+std::size_t processThreads() {
+    std::size_t n = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator("/proc/self/task")) ++n;
+    return n;
+}
+
+}  // namespace
+
+TEST(Pipeline, RunsOnTheConfiguredNumberOfThreads) {
+    // analysis/threads 1 (the default) analyses on the calling thread and
+    // starts no other; 2 starts one worker at the first pair, kept for the
+    // next, and setParallel() overrides the configuration either way.
+    const Scene scene = makeScene();
+    AvatarConfig two = pipelineConfig();
+    two.analysis.threads = 2;
+    {
+        AnalyzeStereoImagePair warm(two);  // whatever OpenCV starts once per process, started now
+        warm.analyze(scene.pair, 1);
+    }
+    const std::size_t before = processThreads();
+    AnalyzeStereoImagePair one(pipelineConfig());
+    one.analyze(scene.pair, 1);
+    one.analyze(scene.pair, 2);
+    EXPECT_EQ(processThreads(), before) << "one thread configured";
+    AnalyzeStereoImagePair parallel(two);
+    EXPECT_EQ(processThreads(), before) << "no worker before the first pair";
+    parallel.analyze(scene.pair, 1);
+    parallel.analyze(scene.pair, 2);
+    EXPECT_EQ(processThreads(), before + 1) << "two threads configured";
+    one.setParallel(true);
+    one.analyze(scene.pair, 3);
+    EXPECT_EQ(processThreads(), before + 2) << "setParallel(true) over one thread configured";
+    AnalyzeStereoImagePair overridden(two);
+    overridden.setParallel(false);
+    overridden.analyze(scene.pair, 1);
+    EXPECT_EQ(processThreads(), before + 2) << "setParallel(false) over two threads configured";
 }
 
 TEST(Pipeline, TimesEveryStageAndTheTotal) {

@@ -264,6 +264,8 @@ const std::vector<BadDocument> kBadDocuments = {
     {"coarse margin too small",
      {{"  </lighting>\n", "  </lighting>\n  <analysis><coarseToFine><enabled>true</enabled><marginPx>0</marginPx></coarseToFine></analysis>\n"}},
      "t.xml:53: /avatar/analysis/coarseToFine/marginPx: must be between 8 and 100000, got 0"},
+    {"three threads", {{"  </lighting>\n", "  </lighting>\n  <analysis><threads>3</threads></analysis>\n"}},
+     "t.xml:53: /avatar/analysis/threads: must be between 1 and 2, got 3"},
     {"tracking without enabled",
      {{"  </lighting>\n", "  </lighting>\n  <analysis><tracking><marginPx>40</marginPx></tracking></analysis>\n"}},
      "t.xml:53: /avatar/analysis/tracking: missing required element <enabled>"},

@@ -281,6 +281,7 @@ std::vector<Mutation> mutations() {
     add("analysis.tracking.marginPx", [](AvatarConfig& c) { c.analysis.tracking.marginPx = 80; });
     add("analysis.coarseToFine.enabled", [](AvatarConfig& c) { c.analysis.coarseToFine.enabled = true; });
     add("analysis.coarseToFine.marginPx", [](AvatarConfig& c) { c.analysis.coarseToFine.marginPx = 24; });
+    add("analysis.threads", [](AvatarConfig& c) { c.analysis.threads = 2; });
 
     // The servo tuning: every field, starting from a section of defaults
     // whose types name the configuration's targets.

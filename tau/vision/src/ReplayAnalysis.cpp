@@ -37,7 +37,7 @@ ReplayStep ReplayAnalysis::next() {
         configProblem_.clear();
         try {
             analyzer_ = std::make_unique<AnalyzeStereoImagePair>(*acquired.recordedConfig(), configDirectory_);
-            analyzer_->setParallel(parallel_);
+            if (parallel_) analyzer_->setParallel(*parallel_);
         } catch (const Error& e) {
             configProblem_ = "configuration " + std::to_string(replay_.lastRecord()->configVersion) +
                              " cannot be used: " + e.what();

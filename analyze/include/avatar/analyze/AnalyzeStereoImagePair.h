@@ -45,7 +45,9 @@ public:
     /// camera (size, channels).
     VisionTargets analyze(const StereoImagePair& pair, std::uint64_t iteration);
 
-    /// Runs both images on the calling thread (for tests and profiling).
+    /// Overrides config.analysis.threads: true runs the right image's share
+    /// of each stage on a second thread (started when first needed), false
+    /// runs both images on the calling thread. The results are the same.
     void setParallel(bool parallel) { parallel_ = parallel; }
 
     /// Whether every whole-image frame's working images are computed whole
@@ -95,7 +97,7 @@ private:
     bool keepWholeImages_{false};
     AnalysisFrame frame_;
     std::vector<StageTiming> cpuTimings_;
-    bool parallel_{true};
+    bool parallel_{false};  ///< config.analysis.threads == 2, or setParallel()
 };
 
 }  // namespace avatar

@@ -71,11 +71,15 @@ struct AnalysisConfig {
     VisibilityConfig visibility;
     TrackingConfig tracking;
     CoarseToFineConfig coarseToFine;
+    /// Threads per pair: 1 runs both images on the calling thread (the least
+    /// CPU per pair), 2 runs the right image's share of each stage on a
+    /// second thread (lower latency, about 10 % more CPU: docs/benchmarks.md).
+    int threads{1};
 
     bool operator==(const AnalysisConfig& o) const {
         return stages == o.stages && demosaic == o.demosaic && centroid == o.centroid &&
                triangulation == o.triangulation && visibility == o.visibility && tracking == o.tracking &&
-               coarseToFine == o.coarseToFine;
+               coarseToFine == o.coarseToFine && threads == o.threads;
     }
 };
 

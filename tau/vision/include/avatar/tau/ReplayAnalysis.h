@@ -65,7 +65,9 @@ public:
     /// avatar::InvalidState when that step has no result.
     VisionTargets analyzeAgain(const ReplayStep& step);
 
-    /// Runs both images of each stage on the calling thread (AnalyzeStereoImagePair::setParallel).
+    /// One thread (false) or two (true) for every analysis from now on,
+    /// whatever each configuration's analysis/threads says
+    /// (AnalyzeStereoImagePair::setParallel).
     void setParallel(bool parallel);
 
     /// The replay backend: the reader, the last record (its files and configuration version), progress.
@@ -80,7 +82,7 @@ private:
     std::filesystem::path configDirectory_;
     std::unique_ptr<AnalyzeStereoImagePair> analyzer_;
     std::string configProblem_;  ///< why the recorded configuration in force cannot be used
-    bool parallel_{true};
+    std::optional<bool> parallel_;  ///< unset: each configuration's analysis/threads
 };
 
 }  // namespace avatar
