@@ -117,7 +117,31 @@ cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalise
     return normalizedToPixel(camera, distortNormalized(camera, normalised));
 }
 
+/// Whether two spheres touch in space: the gap between their surfaces
+/// within the larger of the limits' splitTouchMm and splitTouchShare of the
+/// sum of their radii.
+bool spheresTouch(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
+                  const CompletenessLimits& limits) {
+    const double sum = radiusA + radiusB;
+    return cv::norm(a - b) - sum <= std::max(limits.splitTouchMm, limits.splitTouchShare * sum);
+}
+
 }  // namespace
+
+// The sliver behind a contact (TargetAssembly.h says what it models).
+double hiddenAtContactPx(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
+                         const cv::Point3d& camera, double focalPx) {
+    const cv::Point3d contact = a + (b - a) * (radiusA / (radiusA + radiusB));
+    const cv::Point3d ray = contact - camera;
+    if (ray.dot(a - b) <= 0.0) return 0.0;  // the first is in front
+    const double distance = cv::norm(ray), apart = cv::norm(b - a);
+    if (distance <= 0.0 || apart <= 0.0) return 0.0;
+    const double sinPhi = std::min(1.0, std::abs((b - a).dot(ray)) / (apart * distance));
+    const double depthPx = (radiusA + radiusB) * (1.0 - std::sqrt(1.0 - sinPhi * sinPhi)) * focalPx / distance;
+    const double ra = radiusA * focalPx / std::max(cv::norm(a - camera), 1e-9);
+    const double rb = radiusB * focalPx / std::max(cv::norm(b - camera), 1e-9);
+    return 4.0 / 3.0 * std::sqrt(2.0 * ra * rb / (ra + rb)) * std::pow(depthPx, 1.5);
+}
 
 ImageScale imageScale(const CameraIntrinsics& camera, const cv::Point3d& pointMm) {
     ImageScale s;
@@ -405,6 +429,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         cv::Rect box[2];
         bool contact[2];
         int group;  ///< targets of one feature pair (splitMerged()) judge each other themselves
+        double sphereRadiusMm;  ///< Built::sphereRadiusMm
     };
     std::vector<Placed> placed;
     int group = 0;
@@ -421,7 +446,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             ++group;
             for (Built& one : split) {
                 out.push_back(std::move(one.target));
-                placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {one.contact[0], one.contact[1]}, group});
+                placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {one.contact[0], one.contact[1]}, group, one.sphereRadiusMm});
             }
         }
         for (std::size_t o = 0; o < left.size(); ++o)
@@ -477,6 +502,34 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 if (log4cpp::Category& log = logger(); log.isDebugEnabled())
                     log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
                                       << ": touches " << (any ? "a nearer target" : "no stereo target") << " in the "
+                                      << (side == 0 ? "left" : "right") << " view: occluded there";
+            }
+        }
+    }
+    // Two spheres of separate features that touch in space: the one behind
+    // the contact in a view is hidden there in part, whether or not that
+    // view's outlines showed the contact (a sliver behind a larger sphere
+    // leaves no outline points of another target). Split pairs judged
+    // themselves (splitMerged()).
+    const std::array<cv::Point3d, 2> cameras{cv::Point3d(0, 0, 0),
+                                             transformPoint(inverse(rightTLeft(config_.stereo)), {0, 0, 0})};
+    for (const Placed& a : placed) {
+        VisionTarget& ta = out[a.target];
+        if (a.sphereRadiusMm <= 0.0 || !ta.positionVisionMm) continue;
+        for (const Placed& b : placed) {
+            const VisionTarget& tb = out[b.target];
+            if (&a == &b || a.group == b.group || b.sphereRadiusMm <= 0.0 || !tb.positionVisionMm) continue;
+            if (!spheresTouch(*ta.positionVisionMm, a.sphereRadiusMm, *tb.positionVisionMm, b.sphereRadiusMm, limits_))
+                continue;
+            for (int side = 0; side < 2; ++side) {
+                const double focalPx = side == 0 ? config_.stereo.left.fc[0] : config_.stereo.right.fc[0];
+                if (hiddenAtContactPx(*ta.positionVisionMm, a.sphereRadiusMm, *tb.positionVisionMm, b.sphereRadiusMm,
+                                      cameras[static_cast<std::size_t>(side)], focalPx) < limits_.minHiddenAtContactPx)
+                    continue;
+                ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+                if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+                    log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
+                                      << ": touches a " << tb.type << " sphere in space, behind the contact in the "
                                       << (side == 0 ? "left" : "right") << " view: occluded there";
             }
         }
@@ -687,6 +740,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         if (v.merged) target.flags |= kTargetMerged;
         built.contact[s] = v.contact;  // judged by depth in assemble()
     }
+    if (model == ShapeModel::Sphere) built.sphereRadiusMm = sphereRadiusMm;
 
     const Feature& fl = left.feature;
     const Feature& fr = right.feature;
@@ -1015,17 +1069,42 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
         target.matchError = matchError;
         for (int s = 0; s < 2; ++s) {
             const Sphere& own = views[static_cast<std::size_t>(s)][i];
-            const Sphere& other = views[static_cast<std::size_t>(s)][1 - i];
             const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
-            const auto radiusPx = [](const EllipseFit& f) { return 0.25 * (f.ideal.size.width + f.ideal.size.height); };
-            const double apartPx = cv::norm(own.fit.ideal.center - other.fit.ideal.center);
-            const bool overlap = radiusPx(own.fit) + radiusPx(other.fit) - apartPx > limits_.maxSplitOverlapPx;
             const cv::Point3d& p = s == 0 ? point.leftMm : point.rightMm;
             const cv::Point3d& q = s == 0 ? points[1 - i].leftMm : points[1 - i].rightMm;
             if (own.cut) target.flags |= kTargetCut;
-            if ((overlap && cv::norm(p) > cv::norm(q)) || own.holed)
-                target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+            // Whether the other sphere hides part of this one in this view:
+            // touching in space, by the contact's line of sight
+            // (hiddenAtContactPx()); apart, when their cones from the camera
+            // overlap (by more than maxSplitOverlapPx at the focal length)
+            // and along a ray through the overlap the other's surface comes
+            // first. Not the outlines' mean radii: off the axis a sphere's
+            // outline is elongated, and they missed overlaps of two pixels.
+            bool hidden = false;
+            if (spheresTouch(p, radii[i], q, radii[1 - i], limits_)) {
+                hidden = hiddenAtContactPx(p, radii[i], q, radii[1 - i], cv::Point3d(0, 0, 0), camera.fc[0]) >=
+                         limits_.minHiddenAtContactPx;
+            } else {
+                const cv::Vec3d dp = cv::Vec3d(p.x, p.y, p.z) / cv::norm(p), dq = cv::Vec3d(q.x, q.y, q.z) / cv::norm(q);
+                const double apart = std::acos(std::clamp(dp.dot(dq), -1.0, 1.0));
+                const double halfP = std::asin(std::min(1.0, radii[i] / cv::norm(p)));
+                const double halfQ = std::asin(std::min(1.0, radii[1 - i] / cv::norm(q)));
+                const double overlap = halfP + halfQ - apart;  // rad
+                const cv::Vec3d across = dq - dp * dp.dot(dq);
+                if (overlap * camera.fc[0] > limits_.maxSplitOverlapPx && cv::norm(across) > 0.0) {
+                    const double towards = halfP - 0.5 * overlap;  // the middle of the overlap, from p's direction
+                    const cv::Vec3d ray = dp * std::cos(towards) + across * (std::sin(towards) / cv::norm(across));
+                    const auto entry = [&](const cv::Point3d& centre, double radiusMm) {
+                        const double along = ray.dot(cv::Vec3d(centre.x, centre.y, centre.z));
+                        const double miss2 = centre.dot(centre) - along * along;  // squared distance from the ray
+                        return along - std::sqrt(std::max(0.0, radiusMm * radiusMm - miss2));
+                    };
+                    hidden = entry(p, radii[i]) > entry(q, radii[1 - i]);
+                }
+            }
+            if (hidden || own.holed) target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
             out[i].contact[s] = own.contact;
+            out[i].sphereRadiusMm = radii[i];
             const cv::Point2d px = toPixel(camera, own.cone.axis);
             if (s == 0) target.centroidLeftPx = px;
             else target.centroidRightPx = px;
@@ -1060,6 +1139,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
         if (log4cpp::Category& log = logger(); log.isDebugEnabled())
             log.debugStream() << type.name << " at L " << target.centroidLeftPx.value_or(cv::Point2d())
                               << ": sphere " << i + 1 << " of two in one feature, radius " << radii[i]
+                              << " mm, gap to the other " << cv::norm(point.leftMm - points[1 - i].leftMm) - radii[0] - radii[1]
                               << " mm, reprojection " << point.reprojectionPx << " px, fits "
                               << views[0][i].fit.rmsPx << "/" << views[1][i].fit.rmsPx << " px";
     }

@@ -103,9 +103,21 @@ struct CompletenessLimits {
     /// with two parts) that pair up across the views within this RMS
     /// reprojection error (px) and these radii (maxSphereRadiusMismatch).
     double maxSplitReprojectionPx{1.0};
-    /// The two spheres' images overlap by more than this (px, along the line
-    /// between their centres): the farther one is hidden in part there.
+    /// Two such spheres apart in space whose cones from the camera overlap
+    /// by more than this (px at the focal length): the one whose surface a
+    /// ray through the overlap meets second is hidden in part there.
     double maxSplitOverlapPx{0.25};
+    /// Two spheres touch when the gap between them in space is within the
+    /// larger of these (touching pairs split from one feature measured
+    /// 0.3-1.3 mm apart on seeds 11 and 16 of trust_report); then the one
+    /// behind the contact is hidden in part in that view.
+    double splitTouchMm{1.5};
+    double splitTouchShare{0.05};  ///< of the sum of their radii
+    /// A sphere touching another is hidden in part when the sliver behind
+    /// the contact would hide at least this many pixels of it (a lens of
+    /// 0.2 px depth between outlines of 70 and 50 px radius hides 1 px:
+    /// less moves no centre measurably).
+    double minHiddenAtContactPx{0.5};
     /// Each sphere is fitted on its outline points at least this far (px)
     /// outside the other's circle (the waist's mixed pixels bend both).
     double splitWaistPx{3.0};
@@ -128,6 +140,21 @@ struct ImageScale {
 };
 ImageScale imageScale(const CameraIntrinsics& camera, const cv::Point3d& pointMm);
 
+/// Of two touching spheres seen from @p camera (all in one frame, focal
+/// length @p focalPx), the area in pixels of the first that the second
+/// hides: 0 when the first is in front. The ray through their contact
+/// point passes through the nearer sphere before it reaches the other, so
+/// the one whose centre lies beyond the contact along that ray is hidden
+/// there; not the nearer centre: a large sphere can hide a small one whose
+/// centre is nearer, and two touching spheres hide each other in turn, one
+/// in each view. How much: their outlines overlap by (rA + rB)(1 - cos phi)
+/// at the contact's distance, phi the angle between the line through their
+/// centres and the image plane (0 when they stand side by side), and a
+/// lens of depth d between circles of radii r1, r2 has an area of about
+/// 4/3 sqrt(2 r1 r2 / (r1 + r2)) d^1.5.
+double hiddenAtContactPx(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
+                         const cv::Point3d& camera, double focalPx);
+
 class TargetAssembler {
 public:
     explicit TargetAssembler(const AvatarConfig& config, CompletenessLimits limits = {});
@@ -144,6 +171,7 @@ private:
     struct Built {
         VisionTarget target;
         bool contact[2]{false, false};
+        double sphereRadiusMm{0.0};  ///< located by the sphere model: its radius; else 0
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
