@@ -506,11 +506,11 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             }
         }
     }
-    // Two spheres of separate features that touch in space: the one behind
-    // the contact in a view is hidden there in part, whether or not that
-    // view's outlines showed the contact (a sliver behind a larger sphere
-    // leaves no outline points of another target). Split pairs judged
-    // themselves (splitMerged()).
+    // Two spheres of separate features that touch in space (a composite's
+    // body counts as its sphere): the one behind the contact in a view is
+    // hidden there in part, whether or not that view's outlines showed the
+    // contact (a sliver behind a larger sphere leaves no outline points of
+    // another target). Split pairs judged themselves (splitMerged()).
     const std::array<cv::Point3d, 2> cameras{cv::Point3d(0, 0, 0),
                                              transformPoint(inverse(rightTLeft(config_.stereo)), {0, 0, 0})};
     for (const Placed& a : placed) {
@@ -728,6 +728,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     pl = cl->axis;
                     pr = cr->axis;
                     model = ShapeModel::Composite;
+                    sphereRadiusMm = 0.5 * (rl + rr);  // its body's
                     normalised = true;
                 }
             }
@@ -740,7 +741,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         if (v.merged) target.flags |= kTargetMerged;
         built.contact[s] = v.contact;  // judged by depth in assemble()
     }
-    if (model == ShapeModel::Sphere) built.sphereRadiusMm = sphereRadiusMm;
+    if (model == ShapeModel::Sphere || model == ShapeModel::Composite) built.sphereRadiusMm = sphereRadiusMm;
 
     const Feature& fl = left.feature;
     const Feature& fr = right.feature;

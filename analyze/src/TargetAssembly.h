@@ -171,7 +171,9 @@ private:
     struct Built {
         VisionTarget target;
         bool contact[2]{false, false};
-        double sphereRadiusMm{0.0};  ///< located by the sphere model: its radius; else 0
+        /// Located by the sphere model: its radius; by the composite model:
+        /// its body's (a sphere's cone); else 0.
+        double sphereRadiusMm{0.0};
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
