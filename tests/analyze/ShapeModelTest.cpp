@@ -591,6 +591,42 @@ TEST(Completeness, TheSliverBehindAContactIsWhatTheRendererHides) {
     EXPECT_GE(wholeChecked, 8) << "and leave spheres whole";
 }
 
+// The same poses as above, a yellow sample touching a gold arm marker
+// (two features, two types), analysed: a sphere the renderer hides by 2 px
+// or more in a view is never reported whole, and is flagged occluded in
+// that view, whether or not that view's outline shows the contact.
+TEST(Completeness, ASphereBehindATouchingOneOfAnotherColourIsNotWhole) {
+    const AvatarConfig cfg = config(TargetShape::Sphere);
+    cv::RNG rng(11);
+    int checked = 0;
+    for (int k = 0; k < 8; ++k) {
+        const double ra = rng.uniform(20.0, 40.0), rb = rng.uniform(20.0, 40.0);
+        const cv::Vec3d a(rng.uniform(-150.0, 150.0), rng.uniform(-100.0, 100.0), rng.uniform(600.0, 1400.0));
+        const double around = rng.uniform(0.0, 2.0 * M_PI), tilt = rng.uniform(-0.7, 0.7);
+        const cv::Vec3d direction(std::cos(around) * std::cos(tilt), std::sin(around) * std::cos(tilt), std::sin(tilt));
+        const cv::Vec3d b = a + direction * (ra + rb + 0.01);
+        render::Scene scene = emptyLab();
+        scene.targets = {target("a", render::Shape::Sphere, a, ra),
+                         target("b", render::Shape::Sphere, b, rb, kGold, "arm_marker")};
+        const Outcome o = run(scene, cfg, 5);
+        for (const char* name : {"a", "b"}) {
+            const render::TargetTruth& truth = o.truth.target(name);
+            const auto v = o.of(name);
+            for (int s = 0; s < 2; ++s) {
+                const render::TargetView& view = s == 0 ? truth.left : truth.right;
+                if (view.potentialAreaPx - view.areaPx < 2.0) continue;
+                ++checked;
+                ASSERT_TRUE(v) << name << ", pair " << k;
+                const std::uint32_t occluded = s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+                EXPECT_TRUE((v->flags & occluded) && !(v->flags & kTargetWhole))
+                    << name << (s == 0 ? " left" : " right") << ", pair " << k << ": "
+                    << view.potentialAreaPx - view.areaPx << " px hidden, flags " << flagsOf(v);
+            }
+        }
+    }
+    EXPECT_GE(checked, 4) << "the poses must hide slivers";
+}
+
 // One sphere whose halves pass two filters (yellow "sample", gold
 // "arm_marker") is reported once, never as two targets: ambiguous when the
 // halves are even, of the type holding most of it when one dominates.
