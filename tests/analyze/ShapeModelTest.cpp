@@ -537,6 +537,29 @@ TEST(Completeness, TouchingSpheresOfOneColourAreTwoTargets) {
     EXPECT_LT(s.errorMm("back"), 3.0) << "its best estimate, from the arc it shows";
 }
 
+/// Eight pairs of touching spheres (a, b), seeded: radii 20-40 mm, a at
+/// 0.6-1.4 m, b beside it mostly sideways, tilted up to 40 degrees towards or
+/// away from the cameras, 0.01 mm apart (the renderer does not intersect them).
+struct TouchingPair {
+    cv::Vec3d a, b;
+    double ra, rb;
+};
+std::vector<TouchingPair> touchingPairs() {
+    cv::RNG rng(11);
+    std::vector<TouchingPair> pairs;
+    for (int k = 0; k < 8; ++k) {
+        TouchingPair p;
+        p.ra = rng.uniform(20.0, 40.0);
+        p.rb = rng.uniform(20.0, 40.0);
+        p.a = cv::Vec3d(rng.uniform(-150.0, 150.0), rng.uniform(-100.0, 100.0), rng.uniform(600.0, 1400.0));
+        const double around = rng.uniform(0.0, 2.0 * M_PI), tilt = rng.uniform(-0.7, 0.7);
+        const cv::Vec3d direction(std::cos(around) * std::cos(tilt), std::sin(around) * std::cos(tilt), std::sin(tilt));
+        p.b = p.a + direction * (p.ra + p.rb + 0.01);
+        pairs.push_back(p);
+    }
+    return pairs;
+}
+
 // The sliver of a sphere that a touching one hides (hiddenAtContactPx(),
 // the rule by which a sphere touching another is occluded in a view) against
 // the renderer's truth: touching pairs of random sizes and directions at
@@ -548,15 +571,10 @@ TEST(Completeness, TheSliverBehindAContactIsWhatTheRendererHides) {
     const AvatarConfig cfg = config(TargetShape::Sphere);
     const std::array<cv::Point3d, 2> cameras{cv::Point3d(0, 0, 0),
                                              transformPoint(inverse(rightTLeft(cfg.stereo)), {0, 0, 0})};
-    cv::RNG rng(11);
     int hiddenChecked = 0, wholeChecked = 0;
-    for (int k = 0; k < 8; ++k) {
-        const double ra = rng.uniform(20.0, 40.0), rb = rng.uniform(20.0, 40.0);
-        const cv::Vec3d a(rng.uniform(-150.0, 150.0), rng.uniform(-100.0, 100.0), rng.uniform(600.0, 1400.0));
-        // Mostly sideways, tilted up to 40 degrees towards or away from the cameras.
-        const double around = rng.uniform(0.0, 2.0 * M_PI), tilt = rng.uniform(-0.7, 0.7);
-        const cv::Vec3d direction(std::cos(around) * std::cos(tilt), std::sin(around) * std::cos(tilt), std::sin(tilt));
-        const cv::Vec3d b = a + direction * (ra + rb + 0.01);
+    const std::vector<TouchingPair> pairs = touchingPairs();
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+        const auto [a, b, ra, rb] = pairs[k];
         render::Scene scene = emptyLab();
         scene.targets = {target("a", render::Shape::Sphere, a, ra), target("b", render::Shape::Sphere, b, rb, kGold)};
         render::RenderOptions options;
@@ -597,14 +615,10 @@ TEST(Completeness, TheSliverBehindAContactIsWhatTheRendererHides) {
 // that view, whether or not that view's outline shows the contact.
 TEST(Completeness, ASphereBehindATouchingOneOfAnotherColourIsNotWhole) {
     const AvatarConfig cfg = config(TargetShape::Sphere);
-    cv::RNG rng(11);
     int checked = 0;
-    for (int k = 0; k < 8; ++k) {
-        const double ra = rng.uniform(20.0, 40.0), rb = rng.uniform(20.0, 40.0);
-        const cv::Vec3d a(rng.uniform(-150.0, 150.0), rng.uniform(-100.0, 100.0), rng.uniform(600.0, 1400.0));
-        const double around = rng.uniform(0.0, 2.0 * M_PI), tilt = rng.uniform(-0.7, 0.7);
-        const cv::Vec3d direction(std::cos(around) * std::cos(tilt), std::sin(around) * std::cos(tilt), std::sin(tilt));
-        const cv::Vec3d b = a + direction * (ra + rb + 0.01);
+    const std::vector<TouchingPair> pairs = touchingPairs();
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+        const auto [a, b, ra, rb] = pairs[k];
         render::Scene scene = emptyLab();
         scene.targets = {target("a", render::Shape::Sphere, a, ra),
                          target("b", render::Shape::Sphere, b, rb, kGold, "arm_marker")};
