@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
 #include <cstring>
 
 namespace avatar::detail {
@@ -193,19 +192,6 @@ void boxMorphology5(const cv::Mat& src, cv::Mat& dst, bool erode) {
     }
 }
 
-std::uint64_t loadWord(const std::uint8_t* p) {
-    std::uint64_t v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
-
-/// Whether any of the eight bytes of @p v is 0 (the classic bit trick: exact, no false positives).
-constexpr bool hasZeroByte(std::uint64_t v) {
-    return ((v - 0x0101010101010101ULL) & ~v & 0x8080808080808080ULL) != 0;
-}
-
-bool allBytesAre(const std::uint8_t* p, std::uint64_t word) { return loadWord(p) == word; }
-
 }  // namespace
 
 // A scanline fill on the region's own labels: cv::floodFill without a mask
@@ -213,7 +199,6 @@ bool allBytesAre(const std::uint8_t* p, std::uint64_t word) { return loadWord(p)
 void fillComponent(cv::Mat& labels, cv::Point seed, std::uint8_t from, std::uint8_t to, bool eight,
                    std::vector<cv::Point>& stack) {
     const int w = labels.cols, h = labels.rows;
-    const std::uint64_t fromWord = 0x0101010101010101ULL * from;
     if (from == to || labels.at<std::uint8_t>(seed) != from) return;
     stack.assign(1, seed);
     while (!stack.empty()) {
@@ -223,33 +208,15 @@ void fillComponent(cv::Mat& labels, cv::Point seed, std::uint8_t from, std::uint
         if (row[p.x] != from) continue;  // filled since it was pushed
         int left = p.x, right = p.x;
         while (left > 0 && row[left - 1] == from) --left;
-        while (right + 8 < w && allBytesAre(row + right + 1, fromWord)) right += 8;
         while (right + 1 < w && row[right + 1] == from) ++right;
         std::fill(row + left, row + right + 1, to);
-        // Every run of the seed's value touching this one in the rows above
-        // and below. Eight bytes a step where none or all of them are the
-        // seed's value (the row just filled, the inside of the next one):
-        // only a run's first byte is pushed.
+        // Every run of the seed's value touching this one in the rows above and below.
         const int x0 = eight ? std::max(left - 1, 0) : left, x1 = eight ? std::min(right + 1, w - 1) : right;
         for (const int ny : {p.y - 1, p.y + 1}) {
             if (ny < 0 || ny >= h) continue;
             const std::uint8_t* next = labels.ptr<std::uint8_t>(ny);
-            for (int x = x0; x <= x1;) {
-                if (x + 8 <= x1 + 1) {
-                    const std::uint64_t diff = loadWord(next + x) ^ fromWord;
-                    if (!hasZeroByte(diff)) {  // none of the eight
-                        x += 8;
-                        continue;
-                    }
-                    if (diff == 0) {  // all eight: a run's first byte at most
-                        if (x == x0 || next[x - 1] != from) stack.push_back({x, ny});
-                        x += 8;
-                        continue;
-                    }
-                }
+            for (int x = x0; x <= x1; ++x)
                 if (next[x] == from && (x == x0 || next[x - 1] != from)) stack.push_back({x, ny});
-                ++x;
-            }
         }
     }
 }
