@@ -5,7 +5,8 @@
 // ducks, blue-green water, dark scenes, colours between two filters, silt):
 //
 // 1. colour filters are measured on a training seed (ratio quantiles of the
-//    targets' pixels, overlaps between colours split at the midpoint), and
+//    targets' pixels, R/G minima lowered where the water takes a colour and
+//    nothing else is, overlaps between colours split at the midpoint), and
 //    each type's size range from its whole targets' silhouettes;
 // 2. every pair of the report seed is analysed; each reported stereo target
 //    is associated with the truth (any type) and judged: a target flagged
@@ -39,6 +40,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -153,16 +155,85 @@ AvatarConfig baseConfig() {
     return c;
 }
 
+/// The pixels of a fully visible view within 0.55 of its equivalent radius
+/// of its centroid, as log R/G and log B/G, with @p visit called for each
+/// pixel with a non-zero green.
+template <class Visit>
+void centralPixels(const cv::Mat& img, const render::TargetView& v, Visit visit) {
+    if (img.empty() || v.visibility != render::TargetVisibility::Full || !v.silhouetteCentroidPx) return;
+    const double r = 0.55 * std::sqrt(v.areaPx / M_PI);
+    const cv::Point2d c = *v.silhouetteCentroidPx;
+    for (int y = static_cast<int>(c.y - r); y <= static_cast<int>(c.y + r); ++y)
+        for (int x = static_cast<int>(c.x - r); x <= static_cast<int>(c.x + r); ++x) {
+            if (x < 0 || y < 0 || x >= img.cols || y >= img.rows || std::hypot(x - c.x, y - c.y) > r) continue;
+            double b, g, red;
+            if (img.depth() == CV_16U) {
+                const auto p = img.at<cv::Vec3w>(y, x);
+                b = p[0], g = p[1], red = p[2];
+            } else {
+                const auto p = img.at<cv::Vec3b>(y, x);
+                b = p[0], g = p[1], red = p[2];
+            }
+            if (g <= 0.0) continue;
+            visit(std::log(std::max(red, 0.5) / g), std::log(std::max(b, 0.5) / g));
+        }
+}
+
+/// The medians of centralPixels() (for --verbose), none when it has none.
+std::optional<cv::Point2d> centralChroma(const cv::Mat& img, const render::TargetView& v) {
+    std::vector<double> rg, bg;
+    centralPixels(img, v, [&](double a, double b) {
+        rg.push_back(a);
+        bg.push_back(b);
+    });
+    if (rg.empty()) return std::nullopt;
+    return cv::Point2d(quantile(rg, 0.5), quantile(bg, 0.5));
+}
+
+/// Every 8th pixel in each direction of one view of a training scene that
+/// lies away from every target (beyond 1.5 times the radius of the circle of
+/// its silhouette's area plus 6 px, with nothing in front), as log R/G and
+/// log B/G: the seabed, the water, rocks, silt and look-alikes.
+void backgroundPixels(const cv::Mat& img, const render::GroundTruth& truth, bool left, std::vector<cv::Point2d>& out) {
+    if (img.empty()) return;
+    std::vector<std::pair<cv::Point2d, double>> discs;
+    for (const auto& t : truth.targets) {
+        const render::TargetView& v = left ? t.left : t.right;
+        const auto centre = v.silhouetteCentroidPx ? v.silhouetteCentroidPx : v.projectedCentrePx;
+        if (!centre) continue;
+        discs.emplace_back(*centre, 1.5 * std::sqrt(std::max(v.potentialAreaPx, v.areaPx) / M_PI) + 6.0);
+    }
+    for (int y = 4; y < img.rows; y += 8)
+        for (int x = 4; x < img.cols; x += 8) {
+            bool near = false;
+            for (const auto& [c, r] : discs) near = near || std::hypot(x - c.x, y - c.y) <= r;
+            if (near) continue;
+            double b, g, red;
+            if (img.depth() == CV_16U) {
+                const auto p = img.at<cv::Vec3w>(y, x);
+                b = p[0], g = p[1], red = p[2];
+            } else {
+                const auto p = img.at<cv::Vec3b>(y, x);
+                b = p[0], g = p[1], red = p[2];
+            }
+            if (g <= 0.0) continue;
+            out.emplace_back(std::log(std::max(red, 0.5) / g), std::log(std::max(b, 0.5) / g));
+        }
+}
+
 /// Measures each colour's R/G and B/G on the training scenes (pixels within
 /// 0.55 of the equivalent radius of fully visible targets, in the analysed
-/// image) and sets the filters: 0.2-99.8 % quantiles widened by 5 %, then
-/// where two colours' boxes overlap in both ratios, the ratio whose medians
-/// differ most is split at the midpoint of the overlap (in log).
+/// image) and sets the filters: 0.2-99.8 % quantiles widened by 5 %; each
+/// R/G minimum lowered where the water takes the colour and nothing else is
+/// (against the other colours' pixels and the scenes' background pixels);
+/// then where two colours' boxes overlap in both ratios, the ratio whose
+/// medians differ most is split at the midpoint of the overlap (in log).
 AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, const render::SensorFormat& sensor) {
     AvatarConfig config = baseConfig();
     AnalyzeStereoImagePair analysis(config);
     analysis.setKeepWholeImages(true);  // the colours are read from the whole images
     std::map<std::string, std::vector<double>> rg, bg, sizes;
+    std::vector<cv::Point2d> background;  // log R/G, log B/G of pixels away from every target
     const auto train = scenes(o.trainScenes, o.trainSeed, stereo, sensor);
     for (std::size_t k = 0; k < train.size(); ++k) {
         const auto rr = renderScene(train[k], stereo, sensor, renderSeed(o.trainSeed, k));
@@ -185,26 +256,16 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
             for (int s = 0; s < 2; ++s) {
                 const render::TargetView& v = s == 0 ? t.left : t.right;
                 if (v.visibility != render::TargetVisibility::Full || v.areaPx < 300.0) continue;
-                const cv::Mat& img = analysis.lastFrame().at(s == 0 ? Side::Left : Side::Right).image;
-                const double r = 0.55 * std::sqrt(v.areaPx / M_PI);
-                const cv::Point2d c = *v.silhouetteCentroidPx;
-                for (int y = static_cast<int>(c.y - r); y <= static_cast<int>(c.y + r); ++y)
-                    for (int x = static_cast<int>(c.x - r); x <= static_cast<int>(c.x + r); ++x) {
-                        if (x < 0 || y < 0 || x >= img.cols || y >= img.rows || std::hypot(x - c.x, y - c.y) > r) continue;
-                        double b, g, red;
-                        if (img.depth() == CV_16U) {
-                            const auto p = img.at<cv::Vec3w>(y, x);
-                            b = p[0], g = p[1], red = p[2];
-                        } else {
-                            const auto p = img.at<cv::Vec3b>(y, x);
-                            b = p[0], g = p[1], red = p[2];
-                        }
-                        if (g <= 0.0) continue;
-                        rg[t.type].push_back(std::log(std::max(red, 0.5) / g));
-                        bg[t.type].push_back(std::log(std::max(b, 0.5) / g));
-                    }
+                centralPixels(analysis.lastFrame().at(s == 0 ? Side::Left : Side::Right).image, v,
+                              [&](double a, double b) {
+                                  rg[t.type].push_back(a);
+                                  bg[t.type].push_back(b);
+                              });
             }
         }
+        for (int s = 0; s < 2; ++s)
+            backgroundPixels(analysis.lastFrame().at(s == 0 ? Side::Left : Side::Right).image, rr.truth, s == 0,
+                             background);
     }
     struct Box {
         double lo[2], hi[2], median[2];
@@ -223,6 +284,51 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
             box.median[d] = quantile(*v[d], 0.5);
         }
         boxes[colour.name] = box;
+    }
+    {
+        // The water's side: red is absorbed first, so a colour's R/G falls
+        // with the range under water, further than the training scenes'
+        // few far targets show. Each colour's R/G minimum moves down in
+        // steps while the strip it sweeps (across the colour's B/G range)
+        // holds next to none of the background's pixels and of the other
+        // colours'. Towards another colour it keeps its quantile (the space
+        // between two colours is left to neither: a colour mixed of the two
+        // stays unclaimed); towards the background it goes a quarter of the
+        // way to it (the seabed's colour is on that side for red and orange,
+        // and a cut through the edge pixels mixed with it half way leaves
+        // notches and holes that say "hidden"); with nothing there, kMaxGrowth.
+        // Not the other sides: towards the seabed's or the haze's colour lie
+        // the targets' own edge pixels, and silhouettes grown by them were
+        // taken for two targets (docs/accuracy.md).
+        constexpr double kStep = 0.02, kMaxGrowth = 1.5, kShare = 0.25;
+        const std::size_t backgroundLimit = std::max<std::size_t>(5, background.size() / 50000);
+        std::map<std::string, Box> grown = boxes;
+        for (auto& [name, box] : grown) {
+            std::vector<cv::Point2d> others;
+            for (const auto& [other, pixels] : rg)
+                if (other != name)
+                    for (std::size_t i = 0; i < pixels.size(); ++i) others.emplace_back(pixels[i], bg[other][i]);
+            const std::size_t othersLimit = std::max<std::size_t>(5, others.size() / 2000);
+            const auto inStrip = [&](const std::vector<cv::Point2d>& px, double lo, double hi) {
+                return static_cast<std::size_t>(std::count_if(px.begin(), px.end(), [&](const cv::Point2d& p) {
+                    return p.x >= lo && p.x <= hi && p.y >= box.lo[1] && p.y <= box.hi[1];
+                }));
+            };
+            double reach = kMaxGrowth;
+            for (double step = kStep; step <= kMaxGrowth + 1e-9; step += kStep) {
+                const double lo = box.lo[0] - step, hi = lo + kStep;
+                if (inStrip(others, lo, hi) > othersLimit) {
+                    reach = 0.0;
+                    break;
+                }
+                if (inStrip(background, lo, hi) > backgroundLimit) {
+                    reach = kShare * (step - kStep);
+                    break;
+                }
+            }
+            box.lo[0] -= reach;
+        }
+        boxes = grown;
     }
     for (auto i = boxes.begin(); i != boxes.end(); ++i)
         for (auto j = std::next(i); j != boxes.end(); ++j) {
@@ -593,7 +699,7 @@ int main(int argc, char** argv) {
         std::printf("| type   | R/G | B/G | pixels |\n|--------|-----|-----|--------|\n");
         const AvatarConfig config = trainFilters(o, scorpion.stereo, sensor);
         AnalyzeStereoImagePair analysis(config);
-        if (!o.dumpDir.empty()) analysis.setKeepWholeImages(true);  // crops of missed targets too
+        if (!o.dumpDir.empty() || o.verbose) analysis.setKeepWholeImages(true);  // crops and colours of missed targets too
         Tally tally;
         const auto set = scenes(o.scenes, o.seed, scorpion.stereo, sensor);
         int truthTargets = 0;
@@ -639,13 +745,17 @@ int main(int argc, char** argv) {
                 std::fprintf(stderr, "scene %s: water (%.2f %.2f %.2f)/m, darkness %.2f, turbidity %.2f/m, %zu occluders\n",
                              rr.truth.sceneName.c_str(), li.attenuationPerM[0], li.attenuationPerM[1],
                              li.attenuationPerM[2], li.darknessFactor, li.turbidityPerM, set[k].occluders.size());
-                for (const auto& t : rr.truth.targets)
-                    std::fprintf(stderr, "  truth %s %s %s (%.1f %.1f %.1f) L %s %.0f px hidden %.3f R %s %.0f px hidden %.3f\n",
+                for (const auto& t : rr.truth.targets) {
+                    std::fprintf(stderr, "  truth %s %s %s (%.1f %.1f %.1f) L %s %.0f px hidden %.3f R %s %.0f px hidden %.3f",
                                  t.name.c_str(), t.type.c_str(), std::string(render::toString(t.shape)).c_str(),
                                  t.centreLeftMm.x, t.centreLeftMm.y, t.centreLeftMm.z,
                                  std::string(render::toString(t.left.visibility)).c_str(), t.left.areaPx,
                                  t.left.hiddenFraction(), std::string(render::toString(t.right.visibility)).c_str(),
                                  t.right.areaPx, t.right.hiddenFraction());
+                    const auto chroma = centralChroma(analysis.lastFrame().at(Side::Left).image, t.left);
+                    if (chroma) std::fprintf(stderr, " chroma L %.3f %.3f", chroma->x, chroma->y);
+                    std::fprintf(stderr, "\n");
+                }
                 for (const auto& oc : set[k].occluders) {
                     const auto d = imageDisc(scorpion.stereo.left, cv::Point3d(oc.centreMm),
                                              oc.shape == render::Shape::Box ? cv::norm(oc.halfSizeMm) : oc.radiusMm);
