@@ -16,9 +16,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <optional>
+#include <sstream>
 
 namespace avatar::detail {
 
@@ -691,11 +693,13 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         const auto cl = sphereCone(views[0].fit.conic), cr = sphereCone(views[1].fit.conic);
         std::optional<StereoPoint> sphere, disc;
         cv::Point2d sl, sr, dl, dr;
+        double radiusMismatch = std::numeric_limits<double>::quiet_NaN();  // relative, of the cones' radii
         if (cl && cr && cl->anisotropy <= limits_.maxSphereAnisotropy && cr->anisotropy <= limits_.maxSphereAnisotropy) {
             sphere = calculator_.triangulateNormalized(cl->axis, cr->axis);
             if (sphere) {
                 const double rl = cv::norm(sphere->leftMm) * std::sin(cl->halfAngle);
                 const double rr = cv::norm(sphere->rightMm) * std::sin(cr->halfAngle);
+                radiusMismatch = std::abs(rl - rr) / (0.5 * (rl + rr));
                 if (std::abs(rl - rr) > limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr)) sphere.reset();
                 else sphereRadiusMm = 0.5 * (rl + rr);
             }
@@ -714,6 +718,25 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         else if (disc) { point = disc; pl = dl; pr = dr; model = ShapeModel::Disc; }
         else if (sphere) { point = sphere; pl = sl; pr = sr; model = ShapeModel::Sphere; }
         normalised = point.has_value();
+        // Both outlines are round and their own, yet no one sphere or disc
+        // in space makes both (a cone too elongated, two radii or two disc
+        // normals apart): one view is not the whole object. Its centroids
+        // are no better (an orange sphere at 2 m, one cone elongated by 5 %,
+        // placed 21 mm off by them): what it is cannot be decided.
+        if (!point) {
+            target.flags |= kTargetAmbiguous;
+            if (logger().isDebugEnabled()) {
+                std::ostringstream why;
+                why << type.name << " at L " << left.feature.centroid << ": no round model fits both views: cones ";
+                if (cl && cr)
+                    why << "anisotropy " << cl->anisotropy << " / " << cr->anisotropy << ", radii " << radiusMismatch
+                        << " apart";
+                else why << "none";
+                if (const auto d = discPair(views[0].fit.conic, views[1].fit.conic, rightRLeft_))
+                    why << ", disc normals " << d->disagreementRad << " rad apart";
+                logger().debug(why.str() + ": ambiguous");
+            }
+        }
     }
     // A composite is placed by its largest round part (the duck's body),
     // as a sphere is: its cone axes.
