@@ -381,7 +381,7 @@ struct Hit {
 };
 
 struct Tally {
-    int truthWhole{0}, crowdedWhole{0}, recalled{0}, reportedAny{0};
+    int truthWhole{0}, crowdedWhole{0}, crowdedFound{0}, recalled{0}, reportedAny{0};
     int mixedWhole{0}, mixedFound{0};  ///< of a colour between two filters' (not in the recall)
     int stereo{0}, whole{0};
     int falseWhole{0}, falseWholeHidden1pc{0}, falseWholeFar{0};
@@ -514,6 +514,7 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         if (!records[i].fullyVisible) continue;
         if (records[i].crowded) {
             ++tally.crowdedWhole;
+            tally.crowdedFound += found[i];
             continue;
         }
         if (records[i].name.rfind("mix_", 0) == 0) {
@@ -777,10 +778,10 @@ int main(int argc, char** argv) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::printf("\n## Seed %llu: %d scenes, %d truth targets, 0.5-2.5 m (%.0f s)\n\n",
                     static_cast<unsigned long long>(o.seed), o.scenes, truthTargets, seconds);
-        std::printf("| whole in truth | crowded | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | hidden < 1 px (not false) | false whole | of them >1%% hidden or cut | >5 mm off | whole in truth, >15 mm off | spurious | wrong match | wrong type | duplicates |\n");
+        std::printf("| whole in truth | crowded (found) | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | hidden < 1 px (not false) | false whole | of them >1%% hidden or cut | >5 mm off | whole in truth, >15 mm off | spurious | wrong match | wrong type | duplicates |\n");
         std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-        std::printf("| %d | %d | %d (%d) | %d | %s | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d |\n", tally.truthWhole,
-                    tally.crowdedWhole, tally.mixedWhole, tally.mixedFound, tally.recalled,
+        std::printf("| %d | %d (%d) | %d (%d) | %d | %s | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d |\n", tally.truthWhole,
+                    tally.crowdedWhole, tally.crowdedFound, tally.mixedWhole, tally.mixedFound, tally.recalled,
                     fmt(tally.truthWhole ? 100.0 * tally.recalled / tally.truthWhole : NAN).c_str(), tally.reportedAny,
                     tally.stereo, tally.whole, tally.wholeSubPixelHidden, tally.falseWhole, tally.falseWholeHidden1pc, tally.falseWholeFar, tally.wholeFarOff,
                     tally.wholeSpurious, tally.wholeWrongMatch, tally.wholeWrongType, tally.duplicates);
