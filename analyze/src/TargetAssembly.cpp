@@ -128,6 +128,34 @@ bool spheresTouch(const cv::Point3d& a, double radiusA, const cv::Point3d& b, do
     return cv::norm(a - b) - sum <= std::max(limits.splitTouchMm, limits.splitTouchShare * sum);
 }
 
+/// For two spheres apart in space seen from @p camera: whether the first is
+/// hidden in part by the second, when their cones overlap by more than
+/// @p minOverlapPx at @p focalPx (nullopt when they do not): along a ray
+/// through the middle of the overlap the second's surface comes first (for
+/// two spheres apart the order is the same along every ray through both).
+/// Not the outlines' mean radii: off the axis a sphere's outline is
+/// elongated, and they missed overlaps of two pixels.
+std::optional<bool> hiddenBehindSphere(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
+                        const cv::Point3d& camera, double focalPx, double minOverlapPx) {
+    const cv::Point3d pa = a - camera, pb = b - camera;
+    const double na = cv::norm(pa), nb = cv::norm(pb);
+    if (na <= radiusA || nb <= radiusB) return std::nullopt;  // a camera inside a sphere: no cone
+    const cv::Vec3d da = cv::Vec3d(pa.x, pa.y, pa.z) / na, db = cv::Vec3d(pb.x, pb.y, pb.z) / nb;
+    const double apart = std::acos(std::clamp(da.dot(db), -1.0, 1.0));
+    const double halfA = std::asin(radiusA / na), halfB = std::asin(radiusB / nb);
+    const double overlap = halfA + halfB - apart;  // rad
+    const cv::Vec3d across = db - da * da.dot(db);
+    if (overlap * focalPx <= minOverlapPx || cv::norm(across) <= 0.0) return std::nullopt;
+    const double towards = halfA - 0.5 * overlap;  // the middle of the overlap, from a's direction
+    const cv::Vec3d ray = da * std::cos(towards) + across * (std::sin(towards) / cv::norm(across));
+    const auto entry = [&](const cv::Point3d& centre, double radiusMm) {
+        const double along = ray.dot(cv::Vec3d(centre.x, centre.y, centre.z));
+        const double miss2 = centre.dot(centre) - along * along;  // squared distance from the ray
+        return along - std::sqrt(std::max(0.0, radiusMm * radiusMm - miss2));
+    };
+    return entry(pa, radiusA) > entry(pb, radiusB);
+}
+
 }  // namespace
 
 // The sliver behind a contact (TargetAssembly.h says what it models).
@@ -460,6 +488,8 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
     // A target that touches another target in a view is hidden there unless
     // it is nearer than everything it touches (judged on the flags the views
     // gave, so in any order).
+    const std::array<cv::Point3d, 2> cameras{cv::Point3d(0, 0, 0),
+                                             transformPoint(inverse(rightTLeft(config_.stereo)), {0, 0, 0})};
     std::vector<std::uint32_t> viewFlags(out.size(), 0);
     for (const Placed& p : placed) viewFlags[p.target] = out[p.target].flags;
     for (const Placed& a : placed) {
@@ -479,6 +509,26 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 // one image's centroid, z^2 dx / (f b) in depth.
                 const std::uint32_t fb = viewFlags[b.target];
                 if (fb & (kTargetMerged | kTargetAmbiguous)) nearer = false;
+                // Two spheres (a composite's body counts as its sphere) in
+                // space: touching, the one behind the contact is judged
+                // below; apart, with cones that overlap, by the order along
+                // a ray through the overlap; with cones apart, nothing of
+                // either hides the other, and the contact is their edges'
+                // mixed pixels. Only a composite's contact beyond its body
+                // (its head) is left to the margin below.
+                if (a.sphereRadiusMm > 0.0 && b.sphereRadiusMm > 0.0 && ta.positionVisionMm && tb.positionVisionMm) {
+                    const cv::Point3d pa = *ta.positionVisionMm, pb = *tb.positionVisionMm;
+                    if (spheresTouch(pa, a.sphereRadiusMm, pb, b.sphereRadiusMm, limits_)) continue;
+                    const double focalPx = side == 0 ? config_.stereo.left.fc[0] : config_.stereo.right.fc[0];
+                    const auto behind = hiddenBehindSphere(pa, a.sphereRadiusMm, pb, b.sphereRadiusMm,
+                                                           cameras[static_cast<std::size_t>(side)], focalPx,
+                                                           limits_.maxSplitOverlapPx);
+                    if (behind) {
+                        if (*behind) nearer = false;
+                        continue;
+                    }
+                    if (ta.model != ShapeModel::Composite && tb.model != ShapeModel::Composite) continue;
+                }
                 const bool partial = !(fb & kTargetShapeCorrected) &&
                                      (fb & (kTargetCut | kTargetOccludedLeft | kTargetOccludedRight));
                 double depthDoubt = 0.0;
@@ -513,8 +563,6 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
     // hidden there in part, whether or not that view's outlines showed the
     // contact (a sliver behind a larger sphere leaves no outline points of
     // another target). Split pairs judged themselves (splitMerged()).
-    const std::array<cv::Point3d, 2> cameras{cv::Point3d(0, 0, 0),
-                                             transformPoint(inverse(rightTLeft(config_.stereo)), {0, 0, 0})};
     for (const Placed& a : placed) {
         VisionTarget& ta = out[a.target];
         if (a.sphereRadiusMm <= 0.0 || !ta.positionVisionMm) continue;
@@ -1099,33 +1147,16 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             if (own.cut) target.flags |= kTargetCut;
             // Whether the other sphere hides part of this one in this view:
             // touching in space, by the contact's line of sight
-            // (hiddenAtContactPx()); apart, when their cones from the camera
-            // overlap (by more than maxSplitOverlapPx at the focal length)
-            // and along a ray through the overlap the other's surface comes
-            // first. Not the outlines' mean radii: off the axis a sphere's
-            // outline is elongated, and they missed overlaps of two pixels.
-            bool hidden = false;
-            if (spheresTouch(p, radii[i], q, radii[1 - i], limits_)) {
-                hidden = hiddenAtContactPx(p, radii[i], q, radii[1 - i], cv::Point3d(0, 0, 0), camera.fc[0]) >=
-                         limits_.minHiddenAtContactPx;
-            } else {
-                const cv::Vec3d dp = cv::Vec3d(p.x, p.y, p.z) / cv::norm(p), dq = cv::Vec3d(q.x, q.y, q.z) / cv::norm(q);
-                const double apart = std::acos(std::clamp(dp.dot(dq), -1.0, 1.0));
-                const double halfP = std::asin(std::min(1.0, radii[i] / cv::norm(p)));
-                const double halfQ = std::asin(std::min(1.0, radii[1 - i] / cv::norm(q)));
-                const double overlap = halfP + halfQ - apart;  // rad
-                const cv::Vec3d across = dq - dp * dp.dot(dq);
-                if (overlap * camera.fc[0] > limits_.maxSplitOverlapPx && cv::norm(across) > 0.0) {
-                    const double towards = halfP - 0.5 * overlap;  // the middle of the overlap, from p's direction
-                    const cv::Vec3d ray = dp * std::cos(towards) + across * (std::sin(towards) / cv::norm(across));
-                    const auto entry = [&](const cv::Point3d& centre, double radiusMm) {
-                        const double along = ray.dot(cv::Vec3d(centre.x, centre.y, centre.z));
-                        const double miss2 = centre.dot(centre) - along * along;  // squared distance from the ray
-                        return along - std::sqrt(std::max(0.0, radiusMm * radiusMm - miss2));
-                    };
-                    hidden = entry(p, radii[i]) > entry(q, radii[1 - i]);
-                }
-            }
+            // (hiddenAtContactPx()); apart, by their cones
+            // (hiddenBehindSphere(), overlapping by more than
+            // maxSplitOverlapPx).
+            const bool hidden =
+                spheresTouch(p, radii[i], q, radii[1 - i], limits_)
+                    ? hiddenAtContactPx(p, radii[i], q, radii[1 - i], cv::Point3d(0, 0, 0), camera.fc[0]) >=
+                          limits_.minHiddenAtContactPx
+                    : hiddenBehindSphere(p, radii[i], q, radii[1 - i], cv::Point3d(0, 0, 0), camera.fc[0],
+                                         limits_.maxSplitOverlapPx)
+                          .value_or(false);
             if (hidden || own.holed) target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
             out[i].contact[s] = own.contact;
             out[i].sphereRadiusMm = radii[i];

@@ -641,6 +641,54 @@ TEST(Completeness, ASphereBehindATouchingOneOfAnotherColourIsNotWhole) {
     EXPECT_GE(checked, 4) << "the poses must hide slivers";
 }
 
+// Spheres of two colours apart in space, one partly in front of the other
+// in the image at nearly its depth (3-20 mm between their surfaces, the
+// nearer centre closer than both radii together): the one in front is
+// whole, the one behind is occluded where the renderer hides 2 px or more
+// of it. Judged by the order along a ray through the cones' overlap; a
+// margin of both radii called the one in front hidden too.
+TEST(Completeness, OfTwoSpheresApartTheOneInFrontIsWholeTheOneBehindIsNot) {
+    const AvatarConfig cfg = config(TargetShape::Sphere);
+    cv::RNG rng(23);
+    int front = 0, behind = 0;
+    for (int k = 0; k < 6; ++k) {
+        const double ra = rng.uniform(20.0, 40.0), rb = rng.uniform(20.0, 40.0);
+        const cv::Vec3d a(rng.uniform(-120.0, 120.0), rng.uniform(-80.0, 80.0), rng.uniform(600.0, 1200.0));
+        const double around = rng.uniform(0.0, 2.0 * M_PI);
+        const double sideways = (ra + rb) * rng.uniform(0.5, 0.85), gap = rng.uniform(3.0, 20.0);
+        const double deeper = std::sqrt(std::pow(ra + rb + gap, 2) - sideways * sideways);
+        const cv::Vec3d b = a + cv::Vec3d(std::cos(around) * sideways, std::sin(around) * sideways, deeper);
+        render::Scene scene = emptyLab();
+        const bool goldInFront = k % 2 == 1;
+        scene.targets = {target("a", render::Shape::Sphere, a, ra, goldInFront ? kGold : kYellow,
+                                goldInFront ? "arm_marker" : "sample"),
+                         target("b", render::Shape::Sphere, b, rb, goldInFront ? kYellow : kGold,
+                                goldInFront ? "sample" : "arm_marker")};
+        const Outcome o = run(scene, cfg, 7);
+        const auto va = o.of("a"), vb = o.of("b");
+        ASSERT_TRUE(va && vb) << "pair " << k;
+        const render::TargetTruth& ta = o.truth.target("a");
+        const render::TargetTruth& tb = o.truth.target("b");
+        ASSERT_EQ(ta.left.potentialAreaPx - ta.left.areaPx, 0.0) << "pair " << k;
+        ASSERT_EQ(ta.right.potentialAreaPx - ta.right.areaPx, 0.0) << "pair " << k;
+        if (!ta.left.cut && !ta.right.cut) {
+            ++front;
+            EXPECT_TRUE(va->flags & kTargetWhole) << "pair " << k << ": " << flagsOf(va);
+            EXPECT_LT(o.errorMm("a"), 1.0) << "pair " << k;
+        }
+        for (int s = 0; s < 2; ++s) {
+            const render::TargetView& view = s == 0 ? tb.left : tb.right;
+            if (view.potentialAreaPx - view.areaPx < 2.0) continue;
+            ++behind;
+            EXPECT_TRUE(vb->flags & (s == 0 ? kTargetOccludedLeft : kTargetOccludedRight))
+                << "pair " << k << (s == 0 ? " left" : " right") << ": " << flagsOf(vb);
+            EXPECT_FALSE(vb->flags & kTargetWhole) << "pair " << k;
+        }
+    }
+    EXPECT_GE(front, 5);
+    EXPECT_GE(behind, 6);
+}
+
 // One sphere whose halves pass two filters (yellow "sample", gold
 // "arm_marker") is reported once, never as two targets: ambiguous when the
 // halves are even, of the type holding most of it when one dominates.
