@@ -502,35 +502,34 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 if (&a == &b || a.group == b.group || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
                 any = true;
                 const VisionTarget& tb = out[b.target];
-                // A merged or undecided neighbour's position may be a blend
-                // of two objects: nothing can be judged nearer than it. One
-                // placed by the centroids of an incomplete silhouette may be
-                // off in depth by what is missing: up to half its radius in
-                // one image's centroid, z^2 dx / (f b) in depth.
+                // A neighbour placed by the centroids of an incomplete
+                // silhouette may be off in depth by what is missing: up to
+                // half its radius in one image's centroid, z^2 dx / (f b) in
+                // depth. So may a merged or undecided one (a blend of two
+                // objects in one feature, or a target behind this one whose
+                // visible part no model fits).
                 const std::uint32_t fb = viewFlags[b.target];
-                if (fb & (kTargetMerged | kTargetAmbiguous)) nearer = false;
-                // Two spheres (a composite's body counts as its sphere) in
-                // space: touching, the one behind the contact is judged
-                // below; apart, with cones that overlap, by the order along
-                // a ray through the overlap; with cones apart, nothing of
-                // either hides the other, and the contact is their edges'
-                // mixed pixels. Only a composite's contact beyond its body
-                // (its head) is left to the margin below.
-                if (a.sphereRadiusMm > 0.0 && b.sphereRadiusMm > 0.0 && ta.positionVisionMm && tb.positionVisionMm) {
+                // Two spheres in space: touching, the one behind the
+                // contact is judged below; apart, with cones that overlap,
+                // by the order along a ray through the overlap; with cones
+                // apart, nothing of either hides the other, and the contact
+                // is their edges' mixed pixels. Not a composite by its body:
+                // its head may lie behind a sphere its body is in front of
+                // (a duck 30 px hidden so, seed 31), so the margin below.
+                if (ta.model == ShapeModel::Sphere && tb.model == ShapeModel::Sphere && a.sphereRadiusMm > 0.0 &&
+                    b.sphereRadiusMm > 0.0 && ta.positionVisionMm && tb.positionVisionMm) {
                     const cv::Point3d pa = *ta.positionVisionMm, pb = *tb.positionVisionMm;
                     if (spheresTouch(pa, a.sphereRadiusMm, pb, b.sphereRadiusMm, limits_)) continue;
                     const double focalPx = side == 0 ? config_.stereo.left.fc[0] : config_.stereo.right.fc[0];
                     const auto behind = hiddenBehindSphere(pa, a.sphereRadiusMm, pb, b.sphereRadiusMm,
                                                            cameras[static_cast<std::size_t>(side)], focalPx,
                                                            limits_.maxSplitOverlapPx);
-                    if (behind) {
-                        if (*behind) nearer = false;
-                        continue;
-                    }
-                    if (ta.model != ShapeModel::Composite && tb.model != ShapeModel::Composite) continue;
+                    if (behind && *behind) nearer = false;
+                    continue;
                 }
-                const bool partial = !(fb & kTargetShapeCorrected) &&
-                                     (fb & (kTargetCut | kTargetOccludedLeft | kTargetOccludedRight));
+                const bool partial = (fb & (kTargetMerged | kTargetAmbiguous)) ||
+                                     (!(fb & kTargetShapeCorrected) &&
+                                      (fb & (kTargetCut | kTargetOccludedLeft | kTargetOccludedRight)));
                 double depthDoubt = 0.0;
                 if (partial && tb.positionVisionMm && baselineMm_ > 0.0) {
                     const double z = tb.positionVisionMm->z;

@@ -689,6 +689,37 @@ TEST(Completeness, OfTwoSpheresApartTheOneInFrontIsWholeTheOneBehindIsNot) {
     EXPECT_GE(behind, 6);
 }
 
+// A sphere in front of two touching discs of another colour far behind it
+// (one feature no model fits: merged, placed by a blend of the two): the
+// sphere is still judged nearer, by the doubt such a position has (half its
+// radius in one image's centroid), and is whole; the discs never are. (When
+// nothing was judged nearer than a merged neighbour, the sphere was flagged
+// hidden at the offset of 25 mm, where its outline touches the discs.)
+TEST(Completeness, ASphereInFrontOfAMergedPairFarBehindIsWhole) {
+    const AvatarConfig cfg = config(TargetShape::Sphere);
+    int checked = 0;
+    for (const double offset : {20.0, 22.0, 25.0, 28.0}) {
+        render::Scene scene = emptyLab();
+        const double x = -40 + offset * 1300.0 / 700.0;
+        scene.targets = {target("front", render::Shape::Sphere, {-40, 10, 700}, 30),
+                         target("disc1", render::Shape::Disc, {x, 10, 1300}, 35, kGold, "arm_marker"),
+                         target("disc2", render::Shape::Disc, {x + 70.5, 10, 1300}, 35, kGold, "arm_marker")};
+        const Outcome o = run(scene, cfg, 9);
+        std::optional<VisionTarget> front, discs;
+        for (const VisionTarget& v : o.result.targets)
+            if (v.flags & kTargetStereo) (v.type == "sample" ? front : discs) = v;
+        ASSERT_TRUE(front) << offset;
+        SCOPED_TRACE("offset " + std::to_string(offset) + ": front " + flagsOf(front) + ", discs " + flagsOf(discs));
+        ASSERT_EQ(o.truth.target("front").left.hiddenFraction(), 0.0);
+        ASSERT_EQ(o.truth.target("front").right.hiddenFraction(), 0.0);
+        if (!discs || !(discs->flags & (kTargetMerged | kTargetAmbiguous))) continue;
+        ++checked;
+        EXPECT_TRUE(front->flags & kTargetWhole) << offset << ": " << flagsOf(front);
+        EXPECT_FALSE(discs->flags & kTargetWhole) << offset;
+    }
+    EXPECT_GE(checked, 2);
+}
+
 // One sphere whose halves pass two filters (yellow "sample", gold
 // "arm_marker") is reported once, never as two targets: ambiguous when the
 // halves are even, of the type holding most of it when one dominates.
