@@ -391,6 +391,7 @@ struct Tally {
     std::map<std::string, int> falseReasons;
     std::vector<Hit> hits;        ///< truth whole, reported whole with its type
     std::vector<std::string> misses, falses;
+    std::vector<std::string> crowdedMisses;  ///< crowded, whole in truth, not found whole
 };
 
 void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, const VisionTargets& result,
@@ -515,6 +516,11 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         if (records[i].crowded) {
             ++tally.crowdedWhole;
             tally.crowdedFound += found[i];
+            if (!found[i]) {
+                const std::string flags = foundAny[i] ? " (reported, not whole: " + targetFlagsText(flagsOf[i]) + ")" : "";
+                tally.crowdedMisses.push_back(truth.sceneName + "/" + records[i].name + " " + records[i].type + " " +
+                                              std::string(render::toString(records[i].shape)) + flags);
+            }
             continue;
         }
         if (records[i].name.rfind("mix_", 0) == 0) {
@@ -818,6 +824,7 @@ int main(int argc, char** argv) {
         std::printf("\n");
         for (const auto& f : tally.falses) std::printf("- false whole: %s\n", f.c_str());
         for (const auto& m : tally.misses) std::printf("- missed: %s\n", m.c_str());
+        for (const auto& m : tally.crowdedMisses) std::printf("- crowded, missed: %s\n", m.c_str());
         std::fflush(stdout);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "trust_report: %s\n", e.what());
