@@ -975,37 +975,5 @@ TEST(Completeness, ADuckLosingItsTopInOneViewIsNotWhole) {
     EXPECT_TRUE((d->flags & kTargetOccludedLeft) && !(d->flags & kTargetWhole)) << flagsOf(d);
 }
 
-
-// Two round outlines that no one sphere or disc in space explains: here the
-// right camera's focal length is taken 6 % too long in x, so its true sphere
-// looks 6 % too wide there. Neither model fits both views, and the centroids
-// would place the target by views that disagree: it is reported, ambiguous,
-// never whole. With the true calibration the same pair is whole.
-TEST(Completeness, RoundOutlinesThatNoOneModelExplainsAreAmbiguous) {
-    render::Scene scene = emptyLab();
-    scene.targets = {target("ball", render::Shape::Sphere, {120, 60, 900}, 30)};
-    const AvatarConfig truthConfig = config(TargetShape::Sphere);
-    render::RenderOptions options;
-    options.seed = 5;
-    const render::RenderResult r = render::render(scene, truthConfig.stereo, options);
-    for (const double scale : {1.0, 1.06}) {
-        AvatarConfig cfg = truthConfig;
-        cfg.stereo.right.fc[0] *= scale;
-        AnalyzeStereoImagePair analysis(cfg);
-        const VisionTargets result = analysis.analyze(r.pair, 1);
-        ASSERT_EQ(result.targets.size(), 1u) << scale;
-        const VisionTarget& v = result.targets.front();
-        SCOPED_TRACE(targetFlagsText(v.flags) + " at scale " + std::to_string(scale));
-        if (scale == 1.0) {
-            EXPECT_TRUE(v.flags & kTargetWhole);
-            EXPECT_EQ(v.model, ShapeModel::Sphere);
-        } else {
-            EXPECT_FALSE(v.flags & kTargetWhole);
-            EXPECT_TRUE(v.flags & kTargetAmbiguous);
-            EXPECT_EQ(v.model, ShapeModel::None);
-        }
-    }
-}
-
 }  // namespace
 }  // namespace avatar
