@@ -136,7 +136,7 @@ bool spheresTouch(const cv::Point3d& a, double radiusA, const cv::Point3d& b, do
 /// Not the outlines' mean radii: off the axis a sphere's outline is
 /// elongated, and they missed overlaps of two pixels.
 std::optional<bool> hiddenBehindSphere(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
-                        const cv::Point3d& camera, double focalPx, double minOverlapPx) {
+                                       const cv::Point3d& camera, double focalPx, double minOverlapPx) {
     const cv::Point3d pa = a - camera, pb = b - camera;
     const double na = cv::norm(pa), nb = cv::norm(pb);
     if (na <= radiusA || nb <= radiusB) return std::nullopt;  // a camera inside a sphere: no cone
@@ -502,13 +502,6 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 if (&a == &b || a.group == b.group || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
                 any = true;
                 const VisionTarget& tb = out[b.target];
-                // A neighbour placed by the centroids of an incomplete
-                // silhouette may be off in depth by what is missing: up to
-                // half its radius in one image's centroid, z^2 dx / (f b) in
-                // depth. So may a merged or undecided one (a blend of two
-                // objects in one feature, or a target behind this one whose
-                // visible part no model fits).
-                const std::uint32_t fb = viewFlags[b.target];
                 // Two spheres in space: touching, the one behind the
                 // contact is judged below; apart, with cones that overlap,
                 // by the order along a ray through the overlap; with cones
@@ -524,9 +517,16 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                     const auto behind = hiddenBehindSphere(pa, a.sphereRadiusMm, pb, b.sphereRadiusMm,
                                                            cameras[static_cast<std::size_t>(side)], focalPx,
                                                            limits_.maxSplitOverlapPx);
-                    if (behind && *behind) nearer = false;
+                    if (behind.value_or(false)) nearer = false;
                     continue;
                 }
+                // A neighbour placed by the centroids of an incomplete
+                // silhouette may be off in depth by what is missing: up to
+                // half its radius in one image's centroid, z^2 dx / (f b) in
+                // depth. So may a merged or undecided one (a blend of two
+                // objects in one feature, or a target behind this one whose
+                // visible part no model fits).
+                const std::uint32_t fb = viewFlags[b.target];
                 const bool partial = (fb & (kTargetMerged | kTargetAmbiguous)) ||
                                      (!(fb & kTargetShapeCorrected) &&
                                       (fb & (kTargetCut | kTargetOccludedLeft | kTargetOccludedRight)));
@@ -747,7 +747,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 const double rl = cv::norm(sphere->leftMm) * std::sin(cl->halfAngle);
                 const double rr = cv::norm(sphere->rightMm) * std::sin(cr->halfAngle);
                 radiusMismatch = std::abs(rl - rr) / (0.5 * (rl + rr));
-                if (std::abs(rl - rr) > limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr)) sphere.reset();
+                if (radiusMismatch > limits_.maxSphereRadiusMismatch) sphere.reset();
                 else sphereRadiusMm = 0.5 * (rl + rr);
             }
             sl = cl->axis;

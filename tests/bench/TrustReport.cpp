@@ -155,6 +155,21 @@ AvatarConfig baseConfig() {
     return c;
 }
 
+/// Log R/G and log B/G of pixel (x, y) of an 8- or 16-bit BGR image (a
+/// zero red or blue counted as 0.5); none when its green is zero.
+std::optional<cv::Point2d> logChroma(const cv::Mat& img, int x, int y) {
+    double b, g, red;
+    if (img.depth() == CV_16U) {
+        const auto p = img.at<cv::Vec3w>(y, x);
+        b = p[0], g = p[1], red = p[2];
+    } else {
+        const auto p = img.at<cv::Vec3b>(y, x);
+        b = p[0], g = p[1], red = p[2];
+    }
+    if (g <= 0.0) return std::nullopt;
+    return cv::Point2d(std::log(std::max(red, 0.5) / g), std::log(std::max(b, 0.5) / g));
+}
+
 /// The pixels of a fully visible view within 0.55 of its equivalent radius
 /// of its centroid, as log R/G and log B/G, with @p visit called for each
 /// pixel with a non-zero green.
@@ -166,16 +181,7 @@ void centralPixels(const cv::Mat& img, const render::TargetView& v, Visit visit)
     for (int y = static_cast<int>(c.y - r); y <= static_cast<int>(c.y + r); ++y)
         for (int x = static_cast<int>(c.x - r); x <= static_cast<int>(c.x + r); ++x) {
             if (x < 0 || y < 0 || x >= img.cols || y >= img.rows || std::hypot(x - c.x, y - c.y) > r) continue;
-            double b, g, red;
-            if (img.depth() == CV_16U) {
-                const auto p = img.at<cv::Vec3w>(y, x);
-                b = p[0], g = p[1], red = p[2];
-            } else {
-                const auto p = img.at<cv::Vec3b>(y, x);
-                b = p[0], g = p[1], red = p[2];
-            }
-            if (g <= 0.0) continue;
-            visit(std::log(std::max(red, 0.5) / g), std::log(std::max(b, 0.5) / g));
+            if (const auto chroma = logChroma(img, x, y)) visit(chroma->x, chroma->y);
         }
 }
 
@@ -208,16 +214,7 @@ void backgroundPixels(const cv::Mat& img, const render::GroundTruth& truth, bool
             bool near = false;
             for (const auto& [c, r] : discs) near = near || std::hypot(x - c.x, y - c.y) <= r;
             if (near) continue;
-            double b, g, red;
-            if (img.depth() == CV_16U) {
-                const auto p = img.at<cv::Vec3w>(y, x);
-                b = p[0], g = p[1], red = p[2];
-            } else {
-                const auto p = img.at<cv::Vec3b>(y, x);
-                b = p[0], g = p[1], red = p[2];
-            }
-            if (g <= 0.0) continue;
-            out.emplace_back(std::log(std::max(red, 0.5) / g), std::log(std::max(b, 0.5) / g));
+            if (const auto chroma = logChroma(img, x, y)) out.push_back(*chroma);
         }
 }
 
