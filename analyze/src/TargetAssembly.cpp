@@ -801,6 +801,20 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             }
         }
     }
+    // A composite seen as one round part in both views whose part is no
+    // sphere's (an ellipse of a tilted disc, a cylinder end-on) is not the
+    // object its type describes: something else of its colour, e.g. a colour
+    // between two filters that the water moved into this one. A duck whose
+    // head hides behind its body is still a sphere's cone; a small one's
+    // two parts, split noisily, are left to its centroids as before.
+    const auto oneRoundPart = [](const ViewVerdict& v) {
+        return v.modelUsable && std::count_if(v.parts.parts.begin(), v.parts.parts.end(),
+                                              [](const EllipseFit& p) { return p.ok; }) == 1;
+    };
+    if (composite && model != ShapeModel::Composite && oneRoundPart(views[0]) && oneRoundPart(views[1])) {
+        target.flags |= kTargetAmbiguous;
+        logger().debug(type.name + ": one round part in both views, and no sphere's: not its composite");
+    }
     for (int s = 0; s < 2; ++s) {
         const ViewVerdict& v = views[s];
         if (v.cut) target.flags |= kTargetCut;
