@@ -119,6 +119,16 @@ cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalise
     return normalizedToPixel(camera, distortNormalized(camera, normalised));
 }
 
+/// Whether an ellipse's cone is round enough for a sphere's: its anisotropy
+/// within maxSphereAnisotropy, or for a small one sphereLimbPx over its mean
+/// radius (px).
+bool sphereLike(const SphereCone& cone, const EllipseFit& fit, const CompletenessLimits& limits) {
+    const double radiusPx = 0.25 * (fit.ideal.size.width + fit.ideal.size.height);
+    const double limit = radiusPx > 0.0 ? std::max(limits.maxSphereAnisotropy, limits.sphereLimbPx / radiusPx)
+                                        : limits.maxSphereAnisotropy;
+    return cone.anisotropy <= limit;
+}
+
 /// Whether two spheres touch in space: the gap between their surfaces
 /// within the larger of the limits' splitTouchMm and splitTouchShare of the
 /// sum of their radii.
@@ -741,7 +751,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         std::optional<StereoPoint> sphere, disc;
         cv::Point2d sl, sr, dl, dr;
         double radiusMismatch = std::numeric_limits<double>::quiet_NaN();  // relative, of the cones' radii
-        if (cl && cr && cl->anisotropy <= limits_.maxSphereAnisotropy && cr->anisotropy <= limits_.maxSphereAnisotropy) {
+        if (cl && cr && sphereLike(*cl, views[0].fit, limits_) && sphereLike(*cr, views[1].fit, limits_)) {
             sphere = calculator_.triangulateNormalized(cl->axis, cr->axis);
             if (sphere) {
                 const double rl = cv::norm(sphere->leftMm) * std::sin(cl->halfAngle);
@@ -786,7 +796,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     // as a sphere is: its cone axes.
     if (composite && views[0].modelUsable && views[1].modelUsable) {
         const auto cl = sphereCone(views[0].fit.conic), cr = sphereCone(views[1].fit.conic);
-        if (cl && cr && cl->anisotropy <= limits_.maxSphereAnisotropy && cr->anisotropy <= limits_.maxSphereAnisotropy) {
+        if (cl && cr && sphereLike(*cl, views[0].fit, limits_) && sphereLike(*cr, views[1].fit, limits_)) {
             if (const auto body = calculator_.triangulateNormalized(cl->axis, cr->axis)) {
                 const double rl = cv::norm(body->leftMm) * std::sin(cl->halfAngle);
                 const double rr = cv::norm(body->rightMm) * std::sin(cr->halfAngle);
@@ -1106,7 +1116,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             sphere.fit = fitEllipse(camera, away, limits_.minFitThresholdPx);
             if (!sphere.fit.ok || sphere.fit.rmsPx > limits_.maxFitRmsPx) return refuse("a part's own points fit no ellipse", s);
             const auto cone = sphereCone(sphere.fit.conic);
-            if (!cone || cone->anisotropy > limits_.maxSphereAnisotropy) return refuse("a part is no sphere's cone", s);
+            if (!cone || !sphereLike(*cone, sphere.fit, limits_)) return refuse("a part is no sphere's cone", s);
             sphere.cone = *cone;
             // Its circle where its own points do not show it: inside the
             // other sphere (present), else it is not a whole circle.

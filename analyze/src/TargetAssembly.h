@@ -41,6 +41,11 @@ struct CompletenessLimits {
     int maxUnsupportedBins{1};      ///< ellipse bins without outline points that are tolerated
     double maxFitRmsPx{0.45};       ///< RMS of a round silhouette's inliers about its ellipse
     double maxSphereAnisotropy{0.04};  ///< of a sphere's cone (0 for a sphere)
+    /// A small sphere's cone may be elongated by more: the filter loses up
+    /// to a pixel of its dim limb, so its outline's radius differs by that
+    /// across it. The limit is then this (px) over the ellipse's mean radius
+    /// in pixels, when larger (5 % at 15 px; 0.04 from 19 px on).
+    double sphereLimbPx{0.75};
     double maxSphereRadiusMismatch{0.03};  ///< relative, between the two views' radii
     double maxDiscNormalDisagreementRad{0.09};  ///< about 5 degrees
     double maxSizeMismatch{0.04};   ///< relative, of a round target's size between the views
