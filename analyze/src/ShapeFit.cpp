@@ -262,6 +262,14 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
     const auto toPixel = [&](const cv::Point2d& idealPx) {
         return normalizedToPixel(camera, distortNormalized(camera, idealPx * (1.0 / f)));
     };
+    std::vector<cv::Point2d> contacts;
+    for (const OutlinePoint& p : outline)
+        if (p.kind == EdgeKind::Contact) contacts.push_back(p.px);
+    const auto nearContact = [&](const cv::Point2d& px) {
+        for (const cv::Point2d& q : contacts)
+            if (cv::norm(q - px) <= kSeamPx) return true;
+        return false;
+    };
     for (int k = 0; k < c.bins; ++k) {
         if (supported[static_cast<std::size_t>(k)]) {
             ++c.supported;
@@ -273,7 +281,8 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         // tell (the caller judges; erosion and the mixed pixels between the
         // two masks put the boundary up to two pixels either side).
         bool ownOn = false, ownIn = false, ownDeep = false;
-        const EdgeKind on = probe(toPixel(pointOn(fit.ideal, t, 0.0)), ownOn);
+        const cv::Point2d onPx = toPixel(pointOn(fit.ideal, t, 0.0));
+        const EdgeKind on = probe(onPx, ownOn);
         const EdgeKind in = probe(toPixel(pointOn(fit.ideal, t, 0.75)), ownIn);
         const EdgeKind deep = probe(toPixel(pointOn(fit.ideal, t, 1.75)), ownDeep);
         if (on == EdgeKind::ImageEdge || on == EdgeKind::WindowEdge) ++c.cut;
@@ -281,15 +290,16 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         // filter: the nearer one's own pixels may begin a pixel further in.
         else if (ownIn) ++c.present;
         else if (ownDeep && (on == EdgeKind::Contact || in == EdgeKind::Contact)) ++c.seam;
+        // Where the seam's mixed pixels pass neither filter, the gap between
+        // the two masks is background: still the seam when the outline's own
+        // contact points lie this close.
+        else if (ownDeep && nearContact(onPx)) ++c.seam;
         else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
         else ++c.missing;
     }
     // Points well outside the ellipse are another object, except at the
     // seam with a target it touches: mixed pixels of two colours may pass
     // this filter there (orange beside yellow), a bulge of a pixel or two.
-    std::vector<cv::Point2d> contacts;
-    for (const OutlinePoint& p : outline)
-        if (p.kind == EdgeKind::Contact) contacts.push_back(p.px);
     int excess = fit.excessPoints;
     if (!contacts.empty() && excess > 0) {
         excess = 0;
