@@ -687,6 +687,15 @@ PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhoue
     return out;
 }
 
+bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px, double thresholdPx) {
+    const double f = camera.fc[0];
+    const cv::Point2d n = normalizePixel(camera, px);
+    const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
+    for (const EllipseFit& part : parts.parts)
+        if (part.ok && EllipseFrame(part.ideal).distance(ideal) <= thresholdPx) return true;
+    return false;
+}
+
 double shareOutsideParts(const CameraIntrinsics& camera, const PartsFit& parts, const Silhouette& silhouette,
                          double growPx) {
     if (silhouette.labels.empty()) return 0.0;

@@ -122,6 +122,10 @@ struct PartsFit {
 PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhouette, double minThresholdPx,
                        double partThresholdPx, int maxParts, double minPartSided);
 
+/// Whether image pixel @p px lies inside, or within @p thresholdPx (ideal
+/// pixels) outside, the ellipse of some part of @p parts.
+bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px, double thresholdPx);
+
 /// The share of @p silhouette's own pixels (its labels) that lie outside
 /// every part of @p parts that has an ellipse, each part grown by
 /// @p growPx: what the round parts do not explain (a beak; a neighbour of

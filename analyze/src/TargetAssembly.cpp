@@ -719,6 +719,17 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // object (a neighbour of its colour) or not this shape at all
             // (a box of its colour); inside them, a bite out of it.
             v.strayShare = shareOutsideParts(camera, v.parts, sil, limits_.partThresholdPx);
+            // The parts' bins see only the round parts: where the silhouette
+            // meets the edge outside every part (more of it than the circles
+            // the consensus found), it is cut there (seed 35: a duck 2 px
+            // across the right image's edge there was whole). Where a part's
+            // circle only touches the edge, the bins judge it.
+            for (const OutlinePoint& p : sil.outline)
+                if ((p.kind == EdgeKind::ImageEdge || p.kind == EdgeKind::WindowEdge) &&
+                    !withinParts(camera, v.parts, p.px, limits_.partThresholdPx + 1.0)) {
+                    v.cut = true;
+                    break;
+                }
             v.merged = v.strayShare > limits_.maxStrayShare;
             v.hidden = !v.merged && partHidden;
             v.roundFits = !v.cut && !v.hidden && !v.merged;

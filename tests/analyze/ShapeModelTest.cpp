@@ -987,6 +987,40 @@ TEST(Completeness, ACompositesColourInOneEllipseThatNoSphereMakesIsNotWhole) {
     EXPECT_FALSE(fk->flags & kTargetAmbiguous) << flagsOf(fk);
 }
 
+// A duck moved across the right image's left edge 1 mm at a time: cut
+// while any of it lies beyond the edge (the renderer's truth), whole and
+// `border` while its body's circle only touches it, whole inside. Edge
+// points outside every round part make a composite cut (seed 35 of the
+// trust report: a duck 2 px across the edge where its parts' circles did
+// not reach was whole); those within a pixel of a part's circle, the mixed
+// column at the edge, leave it to the part's bins.
+TEST(Completeness, ADuckAtTheEdgeIsCutOnlyWhenItCrossesIt) {
+    const AvatarConfig cfg = config(TargetShape::Composite);
+    int cut = 0, touching = 0, inside = 0;
+    for (double x = -466; x <= -455; x += 1.0) {
+        render::Scene scene = emptyLab();
+        scene.targets = {target("duck", render::Shape::Duck, {x, 0, 900}, 35)};
+        const Outcome o = run(scene, cfg);
+        const render::TargetTruth& t = o.truth.target("duck");
+        ASSERT_EQ(o.stereoCount(), 1) << "x " << x;
+        const VisionTarget* d = nullptr;
+        for (const VisionTarget& v : o.result.targets)
+            if (v.flags & kTargetStereo) d = &v;
+        const std::string flags = targetFlagsText(d->flags);
+        if (t.right.cut) {
+            ++cut;
+            EXPECT_TRUE((d->flags & kTargetCut) && !(d->flags & kTargetWhole)) << "x " << x << ": " << flags;
+        } else {
+            touching += t.right.atBorder;
+            inside += !t.right.atBorder;
+            EXPECT_TRUE((d->flags & kTargetWhole) && !(d->flags & kTargetCut)) << "x " << x << ": " << flags;
+        }
+    }
+    EXPECT_GE(cut, 4);
+    EXPECT_GE(touching, 1);
+    EXPECT_GE(inside, 4);
+}
+
 // imageScale(): a sphere's image off the axis and through a distorting lens.
 // Its silhouette's area (the renderer's exact coverage) over the scale, times
 // the range squared, is its cross-section pi R^2 at every angle (within
