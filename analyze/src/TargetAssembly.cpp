@@ -723,7 +723,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // meets the edge outside every part (more of it than the circles
             // the consensus found), it is cut there (seed 35: a duck 2 px
             // across the right image's edge there was whole). Where a part's
-            // circle only touches the edge, the bins judge it.
+            // circle only touches the edge, the bins judge it: within a pixel
+            // more than the parts' own threshold (the column of mixed pixels
+            // at the edge, which the blur passes to the filter).
             for (const OutlinePoint& p : sil.outline)
                 if ((p.kind == EdgeKind::ImageEdge || p.kind == EdgeKind::WindowEdge) &&
                     !withinParts(camera, v.parts, p.px, limits_.partThresholdPx + 1.0)) {
@@ -827,7 +829,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     // object its type describes: something else of its colour, e.g. a colour
     // between two filters that the water moved into this one. A duck whose
     // head hides behind its body is still a sphere's cone; a small one's
-    // two parts, split noisily, are left to its centroids as before.
+    // two parts, split noisily, are left to its centroids as before. The
+    // price: a far duck whose head merges into one outline that is no
+    // sphere's is ambiguous too (one in seed 36's 165 whole targets).
     const auto oneRoundPart = [](const ViewVerdict& v) {
         return v.modelUsable && std::count_if(v.parts.parts.begin(), v.parts.parts.end(),
                                               [](const EllipseFit& p) { return p.ok; }) == 1;
