@@ -217,12 +217,19 @@ TEST(ShapeModel, DiscCentreIsThePoleOfTheVanishingLineNotTheEllipseCentre) {
 /// The round completeness of a circle of radius @p r around @p centre seen
 /// through a camera without distortion: 150 outline points (1.7 px apart),
 /// the point k positions from the rightmost one (either way round) lying
-/// bulgePx(k) outside the circle, a contact point when contact(k).
+/// bulgePx(k) outside the circle, a contact point when contact(k). The
+/// silhouette's own pixels are the circle's, less a negative bulge (a dent).
 template <typename Bulge, typename Contact>
 detail::RoundCompleteness circleVerdict(const cv::Point2d& centre, double r, Bulge bulgePx, Contact contact) {
     CameraIntrinsics camera = config(TargetShape::Sphere).stereo.left;
     camera.kc = {0, 0, 0, 0, 0};
     const int n = 150;
+    const auto kAt = [&](const cv::Point2d& px) {
+        const cv::Point2d d = px - centre;
+        const double t = std::atan2(d.y, d.x);
+        const int i = static_cast<int>(std::lround((t < 0.0 ? t + 2.0 * CV_PI : t) / (2.0 * CV_PI) * n)) % n;
+        return std::min(i, n - i);
+    };
     std::vector<detail::OutlinePoint> outline;
     for (int i = 0; i < n; ++i) {
         const double t = 2.0 * CV_PI * i / n;
@@ -233,7 +240,7 @@ detail::RoundCompleteness circleVerdict(const cv::Point2d& centre, double r, Bul
     const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
     EXPECT_TRUE(fit.ok);
     return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
-        own = cv::norm(px - centre) < r;
+        own = cv::norm(px - centre) < r + std::min(0.0, static_cast<double>(bulgePx(kAt(px))));
         return detail::EdgeKind::Free;
     });
 }
@@ -275,32 +282,10 @@ TEST(ShapeModel, TheSeamsEndIsNotASecondObjectButASecondObjectBesideItIs) {
 // depth: complete when this target is the nearer one), not missing. The same
 // dent 30 px from any contact is missing: something hides it.
 TEST(ShapeModel, AGapOfMixedPixelsAtTheSeamIsTheSeamNotMissing) {
-    const cv::Point2d centre(700.0, 500.0);
-    const double r = 40.0, dentPx = 1.2;
-    CameraIntrinsics camera = config(TargetShape::Sphere).stereo.left;
-    camera.kc = {0, 0, 0, 0, 0};
-    const auto verdict = [&](int from, int to) {
-        const int n = 150;
-        const auto dented = [&](double t) {
-            const int i = static_cast<int>(std::lround(t / (2.0 * CV_PI) * n)) % n;
-            const int k = std::min(i, n - i);
-            return k >= from && k <= to;
-        };
-        std::vector<detail::OutlinePoint> outline;
-        for (int i = 0; i < n; ++i) {
-            const double t = 2.0 * CV_PI * i / n;
-            const int k = std::min(i, n - i);
-            outline.push_back({centre + cv::Point2d(std::cos(t), std::sin(t)) * (dented(t) ? r - dentPx : r),
-                               k <= 2 ? detail::EdgeKind::Contact : detail::EdgeKind::Free, 0.2});
-        }
-        const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
-        EXPECT_TRUE(fit.ok);
-        return detail::roundCompleteness(camera, fit, outline, [&](const cv::Point2d& px, bool& own) {
-            const cv::Point2d d = px - centre;
-            const double t = std::atan2(d.y, d.x);
-            own = cv::norm(d) < (dented(t < 0.0 ? t + 2.0 * CV_PI : t) ? r - dentPx : r);
-            return detail::EdgeKind::Free;
-        });
+    // A dent of 1.2 px over points k in [from, to]; contact over k <= 2.
+    const auto verdict = [](int from, int to) {
+        return circleVerdict({700.0, 500.0}, 40.0, [&](int k) { return k >= from && k <= to ? -1.2 : 0.0; },
+                             [](int k) { return k <= 2; });
     };
     const detail::RoundCompleteness atSeam = verdict(3, 4);
     EXPECT_LE(atSeam.missing, 1) << "within the tolerance of one bin (3 before)";
