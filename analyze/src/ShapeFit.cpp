@@ -687,6 +687,66 @@ PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhoue
     return out;
 }
 
+std::optional<cv::Matx22d> coneAxisCovariance(const CameraIntrinsics& camera, const EllipseFit& part,
+                                              const std::vector<OutlinePoint>& outline) {
+    const auto cone = part.ok ? sphereCone(part.conic) : std::nullopt;
+    if (!cone || outline.size() < 3) return std::nullopt;
+    cv::Vec3d n(cone->axis.x, cone->axis.y, 1.0);
+    n *= 1.0 / cv::norm(n);
+    const double f = camera.fc[0], across = std::sin(cone->halfAngle);
+    // Weighted scatter of the rays' tips (weight: 1 / variance of the tip's
+    // distance from the plane).
+    double total = 0.0;
+    cv::Vec3d mean(0, 0, 0);
+    std::vector<std::pair<cv::Vec3d, double>> tips;
+    tips.reserve(outline.size());
+    for (const OutlinePoint& p : outline) {
+        const cv::Point2d q = normalizePixel(camera, p.px);
+        cv::Vec3d u(q.x, q.y, 1.0);
+        u *= 1.0 / cv::norm(u);
+        const double sd = across * std::max(p.sigmaPx, 1e-3) / f;
+        const double w = 1.0 / (sd * sd);
+        tips.emplace_back(u, w);
+        mean += u * w;
+        total += w;
+    }
+    mean *= 1.0 / total;
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    for (const auto& [u, w] : tips) {
+        const cv::Vec3d d = u - mean;
+        scatter += (d * d.t()) * w;
+    }
+    // In the plane: two directions perpendicular to n.
+    cv::Vec3d e1 = std::abs(n[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
+    e1 -= n * n.dot(e1);
+    e1 *= 1.0 / cv::norm(e1);
+    const cv::Vec3d e2 = n.cross(e1);
+    const cv::Matx<double, 3, 2> basis(e1[0], e2[0], e1[1], e2[1], e1[2], e2[2]);
+    const cv::Matx22d inPlane = basis.t() * scatter * basis;
+    if (!(cv::determinant(inPlane) > 0.0)) return std::nullopt;
+    const cv::Matx33d normalCov = basis * inPlane.inv() * basis.t();
+    // The axis image (n_x / n_z, n_y / n_z).
+    const cv::Matx23d j(1.0 / n[2], 0.0, -n[0] / (n[2] * n[2]), 0.0, 1.0 / n[2], -n[1] / (n[2] * n[2]));
+    return j * normalCov * j.t();
+}
+
+int nearestPart(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px) {
+    const double f = camera.fc[0];
+    const cv::Point2d n = normalizePixel(camera, px);
+    const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
+    int best = -1;
+    double bestDistance = 0.0;
+    for (std::size_t i = 0; i < parts.parts.size(); ++i) {
+        if (!parts.parts[i].ok) continue;
+        const double d = std::abs(EllipseFrame(parts.parts[i].ideal).distance(ideal));
+        if (best < 0 || d < bestDistance) {
+            best = static_cast<int>(i);
+            bestDistance = d;
+        }
+    }
+    return best;
+}
+
 bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px, double thresholdPx) {
     const double f = camera.fc[0];
     const cv::Point2d n = normalizePixel(camera, px);

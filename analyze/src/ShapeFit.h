@@ -122,6 +122,19 @@ struct PartsFit {
 PartsFit fitRoundParts(const CameraIntrinsics& camera, const Silhouette& silhouette, double minThresholdPx,
                        double partThresholdPx, int maxParts, double minPartSided);
 
+/// The covariance (undistorted normalised coordinates squared) of the axis
+/// image (x/z, y/z) of the cone of @p part, a part of fitRoundParts() fitted
+/// to @p outline's rays (its free and contact points): each point's noise
+/// (OutlinePoint::sigmaPx, independent) moves its ray across the cone by
+/// sin(half-angle) of it, and the plane fit's normal varies as that noise
+/// over the rays' scatter in the plane. Null for a part without a cone.
+std::optional<cv::Matx22d> coneAxisCovariance(const CameraIntrinsics& camera, const EllipseFit& part,
+                                              const std::vector<OutlinePoint>& outline);
+
+/// The index of the part of @p parts (with an ellipse) whose outline is
+/// nearest image pixel @p px; -1 when none has one.
+int nearestPart(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px);
+
 /// Whether image pixel @p px lies inside, or within @p thresholdPx (ideal
 /// pixels) outside, the ellipse of some part of @p parts.
 bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px, double thresholdPx);

@@ -89,6 +89,11 @@ struct CompletenessLimits {
     /// colour a few pixels inside, which neighbouring edge points share.
     double sphereFitCorrelation{38.0};
     double discFitCorrelation{20.0};
+    /// A composite's body placed by its part's cone (coneAxisCovariance()):
+    /// measured on three ducks over noise seeds 7100-7129 (38 gave
+    /// 1.2-1.55 times too small a sigma); Accuracy.ADucksPredictedSigmaMatchesItsSpread
+    /// checks it on other seeds.
+    double compositeFitCorrelation{75.0};
     /// A composite type's round parts (fitRoundParts()): at most this many
     /// (the duck's body and head), each point within partThresholdPx of its
     /// part's cone.
@@ -176,6 +181,10 @@ private:
     struct Built {
         VisionTarget target;
         bool contact[2]{false, false};
+        /// A composite's contact in a view that is not all on its body's
+        /// outline (at its head, or points no part explains): what its
+        /// body's sphere cannot judge by depth.
+        bool contactOffBody[2]{false, false};
         /// Located by the sphere model: its radius; by the composite model:
         /// its body's (a sphere's cone); else 0.
         double sphereRadiusMm{0.0};

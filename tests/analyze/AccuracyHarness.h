@@ -432,20 +432,14 @@ struct SigmaCheck {
     }
 };
 
-/// The precision scene rendered with @p seeds' noise and analysed with
-/// scorpion.xml, every type declared @p declared (a sphere: spheres take the
-/// sphere model and the tilted discs the disc model; unknown: every target
-/// placed by its centroids), its targets @p rangeScale times as far: per
-/// target found whole, the spread of its positions against the covariance
-/// the analysis predicted.
+/// @p scene rendered with @p seeds' noise and analysed with scorpion.xml,
+/// every type declared @p declared: per target found whole, the spread of
+/// its positions against the covariance the analysis predicted.
 inline std::vector<SigmaCheck> sigmaOverNoiseSeeds(const std::vector<std::uint64_t>& seeds,
-                                                   TargetShape declared = TargetShape::Sphere,
-                                                   double rangeScale = 1.0) {
+                                                   const render::Scene& scene, TargetShape declared) {
     AvatarConfig config = readConfigFile(dataDir() / "config/scorpion.xml");
     for (auto& t : config.targets.targets) t.shape = declared;
     AnalyzeStereoImagePair analysis(config);
-    render::Scene scene = precisionScene();
-    for (auto& t : scene.targets) t.centreMm *= rangeScale;
     render::RenderOptions options;
     options.sensor = render::sensorFormatFrom(config.camera);
     std::vector<std::vector<cv::Point3d>> points(scene.targets.size());
@@ -479,6 +473,17 @@ inline std::vector<SigmaCheck> sigmaOverNoiseSeeds(const std::vector<std::uint64
         out.push_back(c);
     }
     return out;
+}
+
+/// The precision scene's check (above), its targets @p rangeScale times as
+/// far: declared a sphere, spheres take the sphere model and the tilted
+/// discs the disc model; unknown, every target is placed by its centroids.
+inline std::vector<SigmaCheck> sigmaOverNoiseSeeds(const std::vector<std::uint64_t>& seeds,
+                                                   TargetShape declared = TargetShape::Sphere,
+                                                   double rangeScale = 1.0) {
+    render::Scene scene = precisionScene();
+    for (auto& t : scene.targets) t.centreMm *= rangeScale;
+    return sigmaOverNoiseSeeds(seeds, scene, declared);
 }
 
 /// The sphere-bias scene: one large sphere near and far off the optical axis

@@ -9,7 +9,9 @@
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/CameraModel.h>
+#include <avatar/common/RigidTransform.h>
 #include <avatar/config/ConfigXml.h>
+#include <avatar/config/StereoSystemConfig.h>
 #include <avatar/render/Renderer.h>
 #include <avatar/render/Scene.h>
 
@@ -970,6 +972,67 @@ TEST(Completeness, ACompositesColourInOneEllipseThatNoSphereMakesIsNotWhole) {
     const auto fk = f.of("duck");
     ASSERT_TRUE(fk);
     EXPECT_FALSE(fk->flags & kTargetAmbiguous) << flagsOf(fk);
+}
+
+// A duck and a sphere touching side by side at nearly one depth (as the
+// trust report's scenes place touching pairs). The duck counts as its
+// body's sphere where all its contact is on its body's outline, so the pair
+// is judged as two spheres in space: the duck, in front at the contact in
+// both views, is whole, and the ball, a sliver of which passes behind it in
+// one view (the renderer's truth), is occluded there. Before, the duck was
+// judged by the margin of both radii that a contact at its head needs and
+// flagged occluded (seeds 31 and 33: four such ducks). The body is an arc
+// beside the head, placed by its cone. With the ball in front of the duck's
+// head instead, the duck is hidden in part and not whole.
+TEST(Completeness, ADuckBesideASphereIsJudgedByItsBodysSphere) {
+    const double s = 40.0, r = 25.0;
+    const cv::Vec3d centre(-60, 60, 900);
+    auto duck = target("duck", render::Shape::Duck, centre, s);
+    duck.om = {0.0, M_PI, 0.0};  // facing left: its head and beak away from the ball
+    AvatarConfig cfg = config(TargetShape::Sphere);
+    cfg.targets.targets[0].shape = TargetShape::Composite;  // "sample": the duck
+    // Touching, the line of their centres across the ray from the middle of
+    // the baseline: each camera sees the pair a little obliquely.
+    const cv::Point3d mid = transformPoint(inverse(rightTLeft(cfg.stereo)), {0, 0, 0}) * 0.5;
+    cv::Vec3d across(centre[2] - mid.z, 0.0, -(centre[0] - mid.x));
+    across *= (s + r) / cv::norm(across);
+    auto ball = target("ball", render::Shape::Sphere, centre + across, r, kGold, "arm_marker");
+    render::Scene scene = emptyLab();
+    scene.targets = {duck, ball};
+    const Outcome o = run(scene, cfg);
+    const auto hiddenPx = [](const render::TargetView& v) { return v.potentialAreaPx - v.areaPx; };
+    const render::TargetTruth& dt = o.truth.target("duck");
+    const render::TargetTruth& bt = o.truth.target("ball");
+    ASSERT_LT(hiddenPx(dt.left) + hiddenPx(dt.right), 1.0) << "the duck must be whole in both views";
+    ASSERT_LT(hiddenPx(bt.right), 1.0);
+    ASSERT_GE(hiddenPx(bt.left), 1.0) << "a sliver of the ball must pass behind the duck in the left view";
+    const auto d = o.of("duck"), b = o.of("ball");
+    ASSERT_TRUE(d && b);
+    EXPECT_TRUE(d->flags & kTargetWhole) << flagsOf(d);
+    EXPECT_EQ(d->model, ShapeModel::Composite);
+    EXPECT_LT(o.errorMm("duck"), 1.0);
+    EXPECT_TRUE((b->flags & kTargetOccludedLeft) && !(b->flags & kTargetOccludedRight)) << flagsOf(b);
+    EXPECT_EQ(b->model, ShapeModel::Sphere);
+    EXPECT_LT(o.errorMm("ball"), 1.0);
+
+    // The ball 30 mm in front of the duck's head (up and to its right),
+    // hiding part of it in both views: the contact is at the head, which its
+    // body's sphere cannot judge.
+    render::Scene head = emptyLab();
+    auto facing = duck;
+    facing.om = {0.0, 0.0, 0.0};  // head to the right, up
+    const cv::Vec3d headCentre = centre + cv::Vec3d(0.55 * s, -0.75 * s, 0.0);
+    auto front = ball;
+    front.centreMm = headCentre + cv::Vec3d(0.55 * s + r - 12.0, -10.0, -30.0);
+    head.targets = {facing, front};
+    const Outcome h = run(head, cfg);
+    ASSERT_TRUE(h.truth.target("duck").left.occluded && h.truth.target("duck").right.occluded)
+        << "the ball must hide part of the duck's head";
+    const auto hd = h.of("duck");
+    ASSERT_TRUE(hd);
+    EXPECT_TRUE((hd->flags & kTargetOccludedLeft) && (hd->flags & kTargetOccludedRight) &&
+                !(hd->flags & kTargetWhole))
+        << flagsOf(hd);
 }
 
 // A duck moved across the right image's left edge 1 mm at a time: cut
