@@ -182,8 +182,9 @@ private:
         VisionTarget target;
         bool contact[2]{false, false};
         /// A composite's contact in a view that is not all on its body's
-        /// outline (at its head, or points no part explains): what its
-        /// body's sphere cannot judge by depth.
+        /// outline (a contact point nearer another part's circle than the
+        /// body's, or another part's bins at a target): what its body's
+        /// sphere cannot judge by depth.
         bool contactOffBody[2]{false, false};
         /// Located by the sphere model: its radius; by the composite model:
         /// its body's (a sphere's cone); else 0.
