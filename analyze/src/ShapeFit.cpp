@@ -730,10 +730,20 @@ std::optional<cv::Matx22d> coneAxisCovariance(const CameraIntrinsics& camera, co
     return j * normalCov * j.t();
 }
 
-int nearestPart(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px) {
+namespace {
+
+/// Image pixel @p px in ideal pixels (undistorted normalised x fc[0]), as
+/// the parts' ellipses are given.
+cv::Point2f idealPixel(const CameraIntrinsics& camera, const cv::Point2d& px) {
     const double f = camera.fc[0];
     const cv::Point2d n = normalizePixel(camera, px);
-    const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
+    return {static_cast<float>(n.x * f), static_cast<float>(n.y * f)};
+}
+
+}  // namespace
+
+int nearestPart(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px) {
+    const cv::Point2f ideal = idealPixel(camera, px);
     int best = -1;
     double bestDistance = 0.0;
     for (std::size_t i = 0; i < parts.parts.size(); ++i) {
@@ -748,9 +758,7 @@ int nearestPart(const CameraIntrinsics& camera, const PartsFit& parts, const cv:
 }
 
 bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px, double thresholdPx) {
-    const double f = camera.fc[0];
-    const cv::Point2d n = normalizePixel(camera, px);
-    const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
+    const cv::Point2f ideal = idealPixel(camera, px);
     for (const EllipseFit& part : parts.parts)
         if (part.ok && EllipseFrame(part.ideal).distance(ideal) <= thresholdPx) return true;
     return false;

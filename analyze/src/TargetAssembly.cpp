@@ -99,6 +99,7 @@ struct ViewVerdict {
     bool contact{false};    ///< touches another target (to be judged by depth)
     bool touchesEdge{false};
     bool contactOffBody{false};  ///< Built::contactOffBody
+    int roundParts{0};           ///< a composite's parts with an ellipse
     /// A composite's body placed by its part's cone: that axis's covariance
     /// (normalised coordinates squared, coneAxisCovariance()).
     std::optional<cv::Matx22d> coneAxisCovariance;
@@ -570,7 +571,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 if (!tb.positionVisionMm || !ta.positionVisionMm ||
                     !(ta.positionVisionMm->z + margin < tb.positionVisionMm->z)) {
                     nearer = false;
-                    if (tb.positionVisionMm && ta.positionVisionMm)
+                    if (tb.positionVisionMm && ta.positionVisionMm && logger().isDebugEnabled())
                         why << " " << tb.type << " at z " << tb.positionVisionMm->z << " (this one "
                             << ta.positionVisionMm->z << ", margin " << margin << " mm)";
                 }
@@ -742,10 +743,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // places it and checks it is a sphere's (the cone's anisotropy):
             // one round part that is no sphere's is not the duck (below).
             const EllipseFit& cone = v.parts.parts[static_cast<std::size_t>(body)];
-            const int roundParts = static_cast<int>(std::count_if(
-                v.parts.parts.begin(), v.parts.parts.end(), [](const EllipseFit& p) { return p.ok; }));
+            v.roundParts = static_cast<int>(std::count_if(v.parts.parts.begin(), v.parts.parts.end(),
+                                                          [](const EllipseFit& p) { return p.ok; }));
             bool bodyFits = false;
-            if (roundParts >= 2) {
+            if (v.roundParts >= 2) {
                 v.fit = cone;
                 v.coneAxisCovariance =
                     coneAxisCovariance(camera, cone, v.parts.outlines[static_cast<std::size_t>(body)]);
@@ -880,10 +881,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     // two parts, split noisily, are left to its centroids as before. The
     // price: a far duck whose head merges into one outline that is no
     // sphere's is ambiguous too (one in seed 36's 165 whole targets).
-    const auto oneRoundPart = [](const ViewVerdict& v) {
-        return v.modelUsable && std::count_if(v.parts.parts.begin(), v.parts.parts.end(),
-                                              [](const EllipseFit& p) { return p.ok; }) == 1;
-    };
+    const auto oneRoundPart = [](const ViewVerdict& v) { return v.modelUsable && v.roundParts == 1; };
     if (composite && model != ShapeModel::Composite && oneRoundPart(views[0]) && oneRoundPart(views[1])) {
         target.flags |= kTargetAmbiguous;
         logger().debug(type.name + ": one round part in both views, and no sphere's: not its composite");
