@@ -64,8 +64,7 @@ cv::Point2d project(const CameraIntrinsics& c, const cv::Point3d& p) {
     return normalizedToPixel(c, distortNormalized(c, cv::Point2d(p.x / p.z, p.y / p.z)));
 }
 
-render::Scene gridScene(const Placement& lamp, const Options& o, std::uint64_t repeat) {
-    const render::Scene lab = render::readSceneFile(dataDir() / "scenes/lab.xml");
+render::Scene gridScene(const render::Scene& lab, const Placement& lamp, const Options& o, std::uint64_t repeat) {
     render::Scene s;
     s.name = "lamp_bias";
     s.seabed = lab.seabed;
@@ -114,10 +113,11 @@ void measure(const Placement& lamp, const Options& o, TargetShape declared, Erro
     render::RenderOptions options;
     options.sensor = render::sensorFormatFrom(config.camera);
     options.noise = o.noiseDn > 0.0;
+    const render::Scene lab = render::readSceneFile(dataDir() / "scenes/lab.xml");
     for (int r = 0; r < o.repeats; ++r) {
         options.seed = static_cast<std::uint64_t>(r + 1);
         const render::RenderResult rr =
-            render::render(gridScene(lamp, o, static_cast<std::uint64_t>(r)), config.stereo, options);
+            render::render(gridScene(lab, lamp, o, static_cast<std::uint64_t>(r)), config.stereo, options);
         const VisionTargets result = analysis.analyze(rr.pair, static_cast<std::uint64_t>(r));
         for (const VisionTarget& v : result.targets) {
             if (!(v.flags & kTargetWhole) || !v.positionVisionMm || !v.centroidLeftPx || !v.centroidRightPx) continue;
