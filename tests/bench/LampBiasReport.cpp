@@ -10,8 +10,8 @@
 //   right    at the right camera
 //   above    400 mm above the middle of the baseline
 // Per placement: the median error of the sphere model's centre against the
-// projection of the true centre (x and y per view, px), of the silhouette
-// centroid without a model against the true silhouette's centroid, of the
+// projection of the true centre (x and y per view, px), of the sub-pixel
+// silhouette's centroid without a model against the true silhouette's, of the
 // silhouette's equivalent radius sqrt(area / pi), and the median signed
 // depth error of the sphere model (mm). Noise-free by default, so that what
 // is left is the estimator's own bias.
@@ -108,6 +108,9 @@ void measure(const Placement& lamp, const Options& o, TargetShape declared, Erro
         config.camera.bayer = false;
     }
     config.analysis.demosaic = o.demosaic;
+    // Without a model, the centroid of the sub-pixel silhouette (scorpion.xml
+    // triangulates the mask's mean pixel position).
+    config.analysis.centroid = CentroidMode::Coverage;
     for (auto& t : config.targets.targets) t.shape = declared;
     AnalyzeStereoImagePair analysis(config);
     render::RenderOptions options;
