@@ -58,6 +58,7 @@ struct Placement {
 struct Errors {
     std::vector<double> modelXL, modelYL, modelXR, modelYR, dz;
     std::vector<double> centroidXL, centroidXR, radiusL, radiusR;
+    std::vector<double> disparityByColumn[5];  ///< the sphere model's, per grid column (left to right)
 };
 
 cv::Point2d project(const CameraIntrinsics& c, const cv::Point3d& p) {
@@ -136,6 +137,8 @@ void measure(const Placement& lamp, const Options& o, TargetShape declared, Erro
                 e.modelXR.push_back(v.centroidRightPx->x - rt.x);
                 e.modelYR.push_back(v.centroidRightPx->y - rt.y);
                 e.dz.push_back(v.positionVisionMm->z - t.centreLeftMm.z);
+                const int column = (std::atoi(t.name.c_str() + 4) - 1) % 5;  // "ballN", row by row
+                e.disparityByColumn[column].push_back((v.centroidLeftPx->x - l.x) - (v.centroidRightPx->x - rt.x));
             } else {
                 e.centroidXL.push_back(v.centroidLeftPx->x - t.left.silhouetteCentroidPx->x);
                 e.centroidXR.push_back(v.centroidRightPx->x - t.right.silhouetteCentroidPx->x);
@@ -193,8 +196,9 @@ int main(int argc, char** argv) {
         std::printf("|---------|-----|----------|----------|----------|----------|----------|-----|-------------|"
                     "-------------|----------|----------|\n");
         const auto med = [](const std::vector<double>& v) { return quantile(v, 0.5); };
+        std::vector<Errors> all;
         for (const Placement& p : placements) {
-            Errors e;
+            Errors& e = all.emplace_back();
             measure(p, o, TargetShape::Sphere, e);
             measure(p, o, TargetShape::None, e);
             std::printf("| %-7s | %3zu | %8.4f | %8.4f | %8.4f | %8.4f | %8.3f | %3zu | %11.4f | %11.4f | %8.4f | "
@@ -202,6 +206,14 @@ int main(int argc, char** argv) {
                         p.name, e.dz.size(), med(e.modelXL), med(e.modelYL), med(e.modelXR), med(e.modelYR),
                         med(e.dz), e.centroidXL.size(), med(e.centroidXL), med(e.centroidXR), med(e.radiusL),
                         med(e.radiusR));
+        }
+        std::printf("\nThe sphere model's disparity error (median, px) by the grid's column, left to right:\n\n");
+        std::printf("| lamp    | column 1 | column 2 | column 3 | column 4 | column 5 |\n");
+        std::printf("|---------|----------|----------|----------|----------|----------|\n");
+        for (std::size_t k = 0; k < all.size(); ++k) {
+            std::printf("| %-7s |", placements[k].name);
+            for (const auto& column : all[k].disparityByColumn) std::printf(" %8.4f |", med(column));
+            std::printf("\n");
         }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "lamp_bias_report: %s\n", e.what());
