@@ -24,6 +24,7 @@
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
 #include <avatar/common/CameraModel.h>
+#include <avatar/common/RigidTransform.h>
 #include <avatar/config/ConfigXml.h>
 #include <avatar/render/Renderer.h>
 
@@ -90,7 +91,7 @@ render::Scene gridScene(const render::Scene& lab, const Placement& lamp, const O
             t.name = "ball" + std::to_string(++k);
             t.type = "sample";
             t.shape = render::Shape::Sphere;
-            // Centred on the baseline's middle, so both cameras see every one.
+            // About the baseline's middle, so both cameras see every one.
             t.centreMm = cv::Vec3d(ix * 0.18 * o.rangeMm + 53.0 + jitter.uniform(-8.0, 8.0),
                                    iy * 0.18 * o.rangeMm + jitter.uniform(-8.0, 8.0),
                                    o.rangeMm + jitter.uniform(-20.0, 20.0));
@@ -130,6 +131,7 @@ void measure(const Placement& lamp, const Options& o, TargetShape declared, Erro
             const render::TargetTruth& t = rr.truth.targets[static_cast<std::size_t>(i)];
             if (!t.left.silhouetteCentroidPx || !t.right.silhouetteCentroidPx) continue;
             if (declared == TargetShape::Sphere) {
+                if (v.model != ShapeModel::Sphere) continue;  // placed by its centroids: not the model's
                 const cv::Point2d l = project(config.stereo.left, t.centreLeftMm);
                 const cv::Point2d rt = project(config.stereo.right, t.centreRightMm);
                 e.modelXL.push_back(v.centroidLeftPx->x - l.x);
@@ -181,10 +183,12 @@ int main(int argc, char** argv) {
         return 2;
     }
     try {
+        const StereoSystemConfig stereo = readConfigFile(dataDir() / "config/scorpion.xml").stereo;
+        const cv::Point3d right = transformPoint(inverse(rightTLeft(stereo)), {0, 0, 0});  // left camera frame
         const Placement placements[] = {{"ambient", false, {0, 0, 0}},
                                         {"left", true, {0, 0, 0}},
-                                        {"right", true, {106.5, 0, 0}},
-                                        {"above", true, {53.25, -400, 0}}};
+                                        {"right", true, cv::Vec3d(right.x, right.y, right.z)},
+                                        {"above", true, cv::Vec3d(0.5 * right.x, 0.5 * right.y - 400.0, 0.5 * right.z)}};
         std::printf("15 yellow spheres of 25 mm at %.0f mm, %d repeats, read noise %.1f DN, %s\n\n", o.rangeMm,
                     o.repeats, o.noiseDn, o.bgr ? "colour pixels (no mosaic)"
                     : o.demosaic == DemosaicAlgorithm::EdgeAware ? "Bayer mosaic, edge-aware demosaic"
