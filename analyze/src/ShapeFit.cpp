@@ -295,7 +295,10 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         // contact points lie this close.
         else if (ownDeep && nearContact(onPx)) ++c.seam;
         else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
-        else ++c.missing;
+        else {
+            ++c.missing;
+            c.missingAngles.push_back(t);
+        }
     }
     // Points well outside the ellipse are another object, except at the
     // seam with a target it touches: mixed pixels of two colours may pass
@@ -317,6 +320,62 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
     }
     c.excess = excess >= std::max(3, fit.points / 50);
     return c;
+}
+
+bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
+                      const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
+                      double factor, double minLog) {
+    if (!fit.ok || c.missingAngles.empty() || c.bins <= 0) return false;
+    const double f = camera.fc[0];
+    const auto toPixel = [&](const cv::Point2d& idealPx) {
+        return normalizedToPixel(camera, distortNormalized(camera, idealPx * (1.0 / f)));
+    };
+    // The mean log colour of the free background 1.5, 2.5 and 3.5 px
+    // outside the ellipse at angle t; none where any of them is not free.
+    const auto outside = [&](double t) -> std::optional<cv::Vec3d> {
+        cv::Vec3d sum(0, 0, 0);
+        for (const double d : {1.5, 2.5, 3.5}) {
+            const cv::Point2d px = toPixel(pointOn(fit.ideal, t, -d));
+            bool own = false;
+            if (probe(px, own) != EdgeKind::Free || own) return std::nullopt;
+            const cv::Vec3d v = colourAt(px);
+            const double lb = std::log1p(std::max(v[0], 0.0)), lg = std::log1p(std::max(v[1], 0.0)),
+                         lr = std::log1p(std::max(v[2], 0.0));
+            // Chromaticity (B/G, R/G) and brightness: a shadow on the
+            // background changes only the brightness, and only downwards.
+            sum += cv::Vec3d(lb - lg, lr - lg, (lb + lg + lr) / 3.0);
+        }
+        return sum * (1.0 / 3.0);
+    };
+    std::vector<double> channels[3];
+    for (int k = 0; k < c.bins; ++k) {
+        const double t = -CV_PI + (k + 0.5) * 2.0 * CV_PI / c.bins;
+        bool isMissing = false;
+        for (const double m : c.missingAngles) isMissing = isMissing || std::abs(m - t) < 1e-9;
+        if (isMissing) continue;
+        if (const auto v = outside(t))
+            for (int ch = 0; ch < 3; ++ch) channels[ch].push_back((*v)[ch]);
+    }
+    if (channels[0].size() < 8) return false;  // too little free background to know it
+    cv::Vec3d median, spread;
+    for (int ch = 0; ch < 3; ++ch) {
+        std::vector<double>& v = channels[ch];
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        median[ch] = v[v.size() / 2];
+        for (double& x : v) x = std::abs(x - median[ch]);
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        spread[ch] = 1.4826 * v[v.size() / 2];
+    }
+    for (const double t : c.missingAngles) {
+        const auto v = outside(t);
+        if (!v) continue;
+        for (int ch = 0; ch < 3; ++ch) {
+            // Chromaticity either way; brightness only above the background's.
+            const double d = ch < 2 ? std::abs((*v)[ch] - median[ch]) : (*v)[ch] - median[ch];
+            if (d >= minLog && d > factor * spread[ch]) return true;
+        }
+    }
+    return false;
 }
 
 int freeConcavities(const Silhouette& silhouette, double minDepthPx) {

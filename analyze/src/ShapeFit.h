@@ -72,6 +72,7 @@ struct RoundCompleteness {
     /// the depths can tell.
     int seam{0};
     int missing{0};        ///< unsupported bins with background: hidden by something else, or not an ellipse
+    std::vector<double> missingAngles;  ///< the ellipse's angle parameter at each missing bin's middle
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };
 
@@ -89,6 +90,19 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
 /// why not (@p probe tells what lies at a pixel).
 RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const EllipseFit& fit,
                                     const std::vector<OutlinePoint>& outline, const PixelProbe& probe);
+
+/// What the image shows beyond a missing bin: whether, 1.5-3.5 px outside
+/// the ellipse at any of @p c's missing bins, the colour differs from the
+/// background's all around the outline (the same distance outside every
+/// other bin where the probe finds free background) by more than @p factor
+/// times that background's spread (median absolute deviation, per channel
+/// in natural log) and at least @p minLog: something in front of the target
+/// there (a stone, a speck of silt) whose pixels no filter passes, rather
+/// than the dark limb a filter left a bin short. @p colourAt gives the
+/// image's colour (B, G, R) at a distorted pixel.
+bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
+                      const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
+                      double factor, double minLog);
 
 /// The number of concavities of a silhouette's outline deeper than
 /// @p minDepthPx whose deepest point borders free background (not another

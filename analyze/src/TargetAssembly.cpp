@@ -676,6 +676,26 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             const int tolerance = limits_.maxUnsupportedBins;
             v.cut = v.round.cut > tolerance;
             v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, limits_);
+            // A bin short may be a dim limb or something in front of it: what
+            // lies beyond the bin tells (seeds 16, 31, 32: 6-10 px hidden
+            // behind silt or a stone, up to 10 mm off, had passed as whole).
+            if (!v.hidden && v.round.missing > 0) {
+                const cv::Mat& image = w.image;
+                const auto colourAt = [&image](const cv::Point2d& px) {
+                    const int x = std::clamp(static_cast<int>(std::lround(px.x)), 0, image.cols - 1);
+                    const int y = std::clamp(static_cast<int>(std::lround(px.y)), 0, image.rows - 1);
+                    switch (image.type()) {
+                        case CV_16UC3: return cv::Vec3d(image.at<cv::Vec3w>(y, x));
+                        case CV_8UC3: return cv::Vec3d(image.at<cv::Vec3b>(y, x));
+                        case CV_32FC3: return cv::Vec3d(image.at<cv::Vec3f>(y, x));
+                        default: return cv::Vec3d(0, 0, 0);
+                    }
+                };
+                v.hidden = foreignAtMissing(
+                    camera, v.fit, v.round, colourAt,
+                    [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
+                    limits_.foreignFactor, limits_.minForeignLog);
+            }
             // Judged by depth in assemble(); the seam bins are the outline's
             // own, so they leave it complete if it is the nearer one. Any
             // bin at another target counts: a glancing contact of one bin

@@ -65,6 +65,15 @@ struct CompletenessLimits {
     /// fragments of one object only when one's colour is this near the
     /// other's filter (otherwise they are two targets).
     double typeMarginLog{0.1};
+    /// A round silhouette with a missing bin (within maxUnsupportedBins) is
+    /// hidden there when, 1.5-3.5 px outside its ellipse, the colour differs
+    /// from the free background's all around the outline by at least
+    /// minForeignLog (B/G or R/G either way, or brighter; natural log) and
+    /// by foreignFactor times that background's spread: something in front
+    /// of it that no filter passes (a stone, a speck of silt), not a limb
+    /// the filter left a bin short of (foreignAtMissing()).
+    double minForeignLog{0.1};
+    double foreignFactor{4.0};
     /// A round silhouette with a hole of at least this many pixels (inside
     /// its outline, passed by no filter) whose mean colour differs from the
     /// target's by at least minHoleColourLog (R/G or B/G, natural log) and

@@ -802,6 +802,69 @@ TEST(Completeness, ASpeckInsideTheOutlineHidesPartOfTheTarget) {
     EXPECT_TRUE(c && (c->flags & kTargetWhole)) << flagsOf(c);
 }
 
+// What lies just beyond a bin of the outline that no point supports tells
+// something in front of the target (a grey stone, silt: no filter passes
+// it) from a limb the filter left a bin short: foreignAtMissing() against the
+// free background all around. A circle of 30 px on a seabed of one colour
+// with 2 % noise; a patch beyond the missing bin.
+TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
+    const CameraIntrinsics camera;  // no distortion: ideal pixels are pixels less the principal point
+    const cv::Point2d centre(camera.cc[0], camera.cc[1]);
+    const double radius = 30.0;
+    std::vector<detail::OutlinePoint> outline;
+    for (int k = 0; k < 180; ++k) {
+        const double a = 2.0 * M_PI * k / 180.0;
+        outline.push_back({centre + radius * cv::Point2d(std::cos(a), std::sin(a)), detail::EdgeKind::Free, 0.1});
+    }
+    const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
+    ASSERT_TRUE(fit.ok);
+    detail::RoundCompleteness c;
+    c.bins = 64;
+    const auto angleOf = [&](int bin) { return -M_PI + (bin + 0.5) * 2.0 * M_PI / c.bins; };
+    c.missing = 1;
+    c.missingAngles = {angleOf(10)};
+    // The point at the ellipse's angle parameter t, @p out px outside it (a circle: its radius grows).
+    const auto beyond = [&](double t, double out) {
+        const double th = fit.ideal.angle * M_PI / 180.0;
+        const double a = 0.5 * fit.ideal.size.width + out, b = 0.5 * fit.ideal.size.height + out;
+        const double u = a * std::cos(t), v = b * std::sin(t);
+        return cv::Point2d(fit.ideal.center.x + std::cos(th) * u - std::sin(th) * v + camera.cc[0],
+                           fit.ideal.center.y + std::sin(th) * u + std::cos(th) * v + camera.cc[1]);
+    };
+    const cv::Vec3d seabed(3000, 4000, 5000);
+    const auto judge = [&](const std::optional<std::pair<cv::Point2d, cv::Vec3d>>& patch) {
+        cv::Mat image(960, 1280, CV_16UC3);
+        cv::RNG rng(7);
+        for (int y = 0; y < image.rows; ++y)
+            for (int x = 0; x < image.cols; ++x) {
+                const double n = 1.0 + 0.02 * rng.gaussian(1.0);
+                cv::Vec3d v = seabed * n;
+                if (patch && cv::norm(cv::Point2d(x, y) - patch->first) <= 3.0) v = patch->second * n;
+                image.at<cv::Vec3w>(y, x) = cv::Vec3w(cv::saturate_cast<std::uint16_t>(v[0]),
+                                                      cv::saturate_cast<std::uint16_t>(v[1]),
+                                                      cv::saturate_cast<std::uint16_t>(v[2]));
+            }
+        const auto colourAt = [&](const cv::Point2d& px) {
+            return cv::Vec3d(image.at<cv::Vec3w>(static_cast<int>(std::lround(px.y)), static_cast<int>(std::lround(px.x))));
+        };
+        const auto probe = [&](const cv::Point2d& px, bool& own) {
+            own = cv::norm(px - centre) < radius;
+            return detail::EdgeKind::Free;
+        };
+        return detail::foreignAtMissing(camera, fit, c, colourAt, probe, 4.0, 0.1);
+    };
+    EXPECT_FALSE(judge(std::nullopt)) << "the seabed alone";
+    const cv::Vec3d stone(6000, 6000, 6000);
+    EXPECT_TRUE(judge(std::make_pair(beyond(angleOf(10), 2.5), stone))) << "a grey stone beyond the missing bin";
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(30), 2.5), stone))) << "the stone beyond a supported bin";
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), seabed * 0.6)))
+        << "a shadow: the seabed's colour, darker";
+    EXPECT_TRUE(judge(std::make_pair(beyond(angleOf(10), 2.5), seabed * 1.6))) << "the seabed's colour, brighter";
+    c.missingAngles.clear();
+    c.missing = 0;
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), stone))) << "no missing bin: nothing is judged";
+}
+
 // A yellow duck (a composite type: no model can check a union) with a gold
 // sphere in front of its edge in the right image: two colours well inside their
 // own filters are two targets, not one object split between filters. The
