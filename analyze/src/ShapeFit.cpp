@@ -297,7 +297,7 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
         else {
             ++c.missing;
-            c.missingAngles.push_back(t);
+            c.missingBins.push_back(k);
         }
     }
     // Points well outside the ellipse are another object, except at the
@@ -325,7 +325,8 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
 bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
                       const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
                       double factor, double minLog) {
-    if (!fit.ok || c.missingAngles.empty() || c.bins <= 0) return false;
+    if (!fit.ok || c.missingBins.empty() || c.bins <= 0) return false;
+    const auto angleOf = [&](int k) { return -CV_PI + (k + 0.5) * 2.0 * CV_PI / c.bins; };
     const double f = camera.fc[0];
     const auto toPixel = [&](const cv::Point2d& idealPx) {
         return normalizedToPixel(camera, distortNormalized(camera, idealPx * (1.0 / f)));
@@ -349,11 +350,8 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
     };
     std::vector<double> channels[3];
     for (int k = 0; k < c.bins; ++k) {
-        const double t = -CV_PI + (k + 0.5) * 2.0 * CV_PI / c.bins;
-        bool isMissing = false;
-        for (const double m : c.missingAngles) isMissing = isMissing || std::abs(m - t) < 1e-9;
-        if (isMissing) continue;
-        if (const auto v = outside(t))
+        if (std::find(c.missingBins.begin(), c.missingBins.end(), k) != c.missingBins.end()) continue;
+        if (const auto v = outside(angleOf(k)))
             for (int ch = 0; ch < 3; ++ch) channels[ch].push_back((*v)[ch]);
     }
     if (channels[0].size() < 8) return false;  // too little free background to know it
@@ -366,8 +364,8 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
         std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
         spread[ch] = 1.4826 * v[v.size() / 2];
     }
-    for (const double t : c.missingAngles) {
-        const auto v = outside(t);
+    for (const int k : c.missingBins) {
+        const auto v = outside(angleOf(k));
         if (!v) continue;
         for (int ch = 0; ch < 3; ++ch) {
             // Chromaticity either way; brightness only above the background's.

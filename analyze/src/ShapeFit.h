@@ -72,7 +72,7 @@ struct RoundCompleteness {
     /// the depths can tell.
     int seam{0};
     int missing{0};        ///< unsupported bins with background: hidden by something else, or not an ellipse
-    std::vector<double> missingAngles;  ///< the ellipse's angle parameter at each missing bin's middle
+    std::vector<int> missingBins;  ///< which bins are missing (bin k spans angle parameters -pi + [k, k + 1) 2 pi / bins)
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };
 

@@ -822,7 +822,7 @@ TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
     c.bins = 64;
     const auto angleOf = [&](int bin) { return -M_PI + (bin + 0.5) * 2.0 * M_PI / c.bins; };
     c.missing = 1;
-    c.missingAngles = {angleOf(10)};
+    c.missingBins = {10};
     // The point at the ellipse's angle parameter t, @p out px outside it (a circle: its radius grows).
     const auto beyond = [&](double t, double out) {
         const double th = fit.ideal.angle * M_PI / 180.0;
@@ -860,7 +860,7 @@ TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
     EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), seabed * 0.6)))
         << "a shadow: the seabed's colour, darker";
     EXPECT_TRUE(judge(std::make_pair(beyond(angleOf(10), 2.5), seabed * 1.6))) << "the seabed's colour, brighter";
-    c.missingAngles.clear();
+    c.missingBins.clear();
     c.missing = 0;
     EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), stone))) << "no missing bin: nothing is judged";
 }
