@@ -149,14 +149,26 @@ std::optional<cv::Matx22d> modelPointCovariance(
     return g * fit.parameterCovariance * g.t();
 }
 
+/// The least distance outside the ellipse at which a free outline point is
+/// evidence of another object in the silhouette (px), when the fit's inlier
+/// limit is less. A second object lies its own size outside; the limit is
+/// three times the fit's scatter, which for a clean outline is a tenth of a
+/// pixel or less, and a pixel's worth of the demosaic's false colour or a
+/// notch's floor is not another object.
+constexpr double kExcessPx = 1.0;
+
 EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlinePoint>& outline,
                       double minThresholdPx) {
     EllipseFit fit;
     const double f = camera.fc[0];
     std::vector<cv::Point2d> normalised;
     std::vector<double> variances;  // of each point's position, px^2
+    // A notch's walls lie inside the outline by the notch's depth: on a
+    // sphere's limb in shadow, where the filter leaves notches a pixel or
+    // two deep, they pulled the ellipse towards the lamp (docs/accuracy.md,
+    // "The thirteenth round").
     for (const OutlinePoint& p : outline)
-        if (p.kind == EdgeKind::Free) {
+        if (p.kind == EdgeKind::Free && !p.wall) {
             normalised.push_back(normalizePixel(camera, p.px));
             variances.push_back(p.sigmaPx * p.sigmaPx);
         }
@@ -212,6 +224,7 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
             inlierVariances.push_back(variances[i]);
         } else if (r[i] > 0.0) {
             ++fit.excessPoints;
+            fit.farExcessPoints += r[i] > kExcessPx;
         } else {
             ++fit.deficitPoints;
         }
@@ -300,18 +313,20 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
             c.missingBins.push_back(k);
         }
     }
-    // Points well outside the ellipse are another object, except at the
-    // seam with a target it touches: mixed pixels of two colours may pass
-    // this filter there (orange beside yellow), a bulge of a pixel or two.
-    int excess = fit.excessPoints;
+    // Points well outside the ellipse (beyond its inlier limit and
+    // kExcessPx) are another object, except at the seam with a target it
+    // touches: mixed pixels of two colours may pass this filter there
+    // (orange beside yellow), a bulge of a pixel or two.
+    int excess = fit.farExcessPoints;
+    const double excessFrom = std::max(fit.thresholdPx, kExcessPx);
     if (!contacts.empty() && excess > 0) {
         excess = 0;
         for (const OutlinePoint& p : outline) {
-            if (p.kind != EdgeKind::Free) continue;
+            if (p.kind != EdgeKind::Free || p.wall) continue;  // the points fitEllipse() counted
             const cv::Point2d n = normalizePixel(camera, p.px);
             const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
             const double outside = frame.distance(ideal);
-            if (outside <= fit.thresholdPx) continue;
+            if (outside <= excessFrom) continue;
             const double reach = outside <= kSeamBulgePx ? kSeamEndPx : kSeamPx;
             bool seam = false;
             for (const cv::Point2d& q : contacts) seam = seam || cv::norm(q - p.px) <= reach;

@@ -41,6 +41,7 @@ struct EllipseFit {
     double thresholdPx{0.0};    ///< the inlier limit used
     int points{0}, inliers{0};
     int excessPoints{0};        ///< free points outside the ellipse beyond the limit
+    int farExcessPoints{0};     ///< of them, those more than a pixel outside
     int deficitPoints{0};       ///< free points inside it beyond the limit
     /// Covariance of the ellipse's parameters (centre x, y and semi-axes in
     /// ideal pixels, angle in rad; @p ideal's order and axes) from the
@@ -81,7 +82,7 @@ struct RoundCompleteness {
 /// (normalised).
 cv::Matx33d ellipseConic(const cv::RotatedRect& e, double f, const cv::Point2d& offset);
 
-/// Fits @p outline's free points (needs at least 10). @p minThresholdPx is
+/// Fits @p outline's free points but a notch's walls (needs at least 10). @p minThresholdPx is
 /// the smallest inlier limit (the fit's accuracy).
 EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlinePoint>& outline,
                       double minThresholdPx);

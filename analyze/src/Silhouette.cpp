@@ -479,6 +479,129 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
     freeEdges.reserve(perimeter);
     const int wx0 = window.x - roi.x, wy0 = window.y - roi.y;
     const int wx1 = wx0 + window.width, wy1 = wy0 + window.height;
+    // Beyond the region (region coordinates): background when inside the
+    // image and in no mask; its colour read where it is.
+    const auto freeBeyondRegion = [&](int x, int y) {
+        const int gx = roi.x + x, gy = roi.y + y;
+        if (gx < 0 || gy < 0 || gx >= imageRect.width || gy >= imageRect.height) return false;
+        if (ownMask.at<std::uint8_t>(gy, gx) != 0) return false;
+        for (const cv::Mat& m : masks)
+            if (m.at<std::uint8_t>(gy, gx) != 0) return false;
+        return true;
+    };
+    const auto colourBeyondRegion = [&](int x, int y) -> cv::Vec3f {
+        const int gx = roi.x + x, gy = roi.y + y;
+        switch (bgr.type()) {
+            case CV_16UC3: return cv::Vec3f(bgr.at<cv::Vec3w>(gy, gx));
+            case CV_8UC3: return cv::Vec3f(bgr.at<cv::Vec3b>(gy, gx));
+            case CV_32FC3: return bgr.at<cv::Vec3f>(gy, gx);
+            default: {
+                cv::Mat pixel;
+                bgr(cv::Rect(gx, gy, 1, 1)).convertTo(pixel, CV_32FC3);
+                return pixel.at<cv::Vec3f>(0, 0);
+            }
+        }
+    };
+    // What the sub-pixel edge at the free edge of pixel (x, y) towards d is
+    // computed from: the target's colour next to it (up to three pixels two
+    // steps inside) and the colours of the five pixels across it (one inside
+    // the mask, three beyond it: where the target darkens towards its limb,
+    // the filter may stop a pixel or two short of the edge).
+    struct EdgeSamples {
+        cv::Vec3d target;
+        std::array<cv::Vec3d, 5> colours;  ///< k = -1 .. 3
+        std::array<bool, 5> unmixed{};     ///< false: beyond the region or another target (the mask's side)
+        /// Its own pixels again beyond the edge: the wall of a notch where
+        /// the filter dropped a pixel or two (a limb in shadow, whose mixed
+        /// pixels the demosaic gives false colours; haze; noise), looked
+        /// across along the outline, not out of it (OutlinePoint::wall). Its
+        /// coverage sum would move the point up to 2.5 px along the
+        /// outline; the notch's floor, looked out of, places the outline.
+        bool wall{false};
+    };
+    const auto samplesAt = [&](int x, int y, const Direction& d) {
+        EdgeSamples s;
+        const int tx = -d.dy, ty = d.dx;  // along the edge
+        cv::Vec3f t(0, 0, 0);
+        int nt = 0;
+        for (int k = -1; k <= 1; ++k) {
+            const int ix = x - 2 * d.dx + k * tx, iy = y - 2 * d.dy + k * ty;
+            if (label(ix, iy) == kFeature) {
+                t += colour(ix, iy);
+                ++nt;
+            }
+        }
+        s.target = cv::Vec3d(nt > 0 ? t * (1.0f / nt) : targetMean);
+        for (int k = -1; k <= 3; ++k) {
+            const int sx = x + k * d.dx, sy = y + k * d.dy;
+            const int ls = label(sx, sy);
+            const auto i = static_cast<std::size_t>(k + 1);
+            s.wall = s.wall || (k >= 1 && ls == kFeature);
+            s.unmixed[i] = ls == kFeature || ls == kBackground || ls == kOutside;
+            if (s.unmixed[i]) s.colours[i] = cv::Vec3d(colour(sx, sy));
+        }
+        return s;
+    };
+    // The background's colour next to the edge: up to three pixels
+    // @p steps beyond it; false (and the region's mean) when none is free.
+    const auto backgroundAt = [&](int x, int y, const Direction& d, int steps, cv::Vec3d& b) {
+        const int tx = -d.dy, ty = d.dx;
+        cv::Vec3f sum(0, 0, 0);
+        int n = 0;
+        for (int k = -1; k <= 1; ++k) {
+            const int ox = x + steps * d.dx + k * tx, oy = y + steps * d.dy + k * ty;
+            const int lo = label(ox, oy);
+            if (lo == kOutside || lo == kBackground) {
+                sum += colour(ox, oy);
+                ++n;
+            } else if (lo == -1 && freeBeyondRegion(ox, oy)) {
+                sum += colourBeyondRegion(ox, oy);
+                ++n;
+            }
+        }
+        b = cv::Vec3d(n > 0 ? sum * (1.0f / n) : backgroundMean);
+        return n > 0;
+    };
+    struct Unmixed {
+        bool ok{false};  ///< false: the colours are too close here (the pixel edge is used)
+        double sum{0.0}, edgeVar{0.0};
+    };
+    // Unmixing: a pixel that sees coverage a of the target and 1 - a of the
+    // background has colour v = beta t + (1 - a) b, where beta = a c takes
+    // the target's shading c at the very edge (darker than t two pixels
+    // inside, on a sphere's limb): with M = [t | -b], (beta, a) = M^+ (v - b).
+    // The target's colour differs from the background's in its ratios (that
+    // is what the filter found), so t and b are not parallel. The edge lies
+    // at e = sum of a - 1.5 pixels from the edge pixel's centre.
+    const auto unmix = [&](const EdgeSamples& s, const cv::Vec3d& bv) {
+        Unmixed u;
+        const cv::Vec3d& tv = s.target;
+        const double mtt = tv.dot(tv), mtb = -tv.dot(bv), mbb = bv.dot(bv);
+        const double det = mtt * mbb - mtb * mtb;
+        if (!(det > 1e-6 * mtt * mbb)) return u;  // colours (nearly) parallel
+        // Row of M^+ that gives a: (-mtb t^T + mtt (-b)^T) / det.
+        const cv::Vec3d w = (tv * (-mtb) - bv * mtt) * (1.0 / det);
+        const double var = w[0] * w[0] * noiseVar[0] + w[1] * w[1] * noiseVar[1] + w[2] * w[2] * noiseVar[2];
+        if (var > 0.15 * 0.15) return u;  // too little contrast here
+        double previous = 1.0;
+        for (int k = -1; k <= 3; ++k) {
+            // The fifth pixel only while the edge has not been crossed.
+            if (k == 3 && previous < 0.25) break;
+            const auto i = static_cast<std::size_t>(k + 1);
+            double a;
+            if (s.unmixed[i]) {
+                a = (s.colours[i] - bv).dot(w);
+                u.edgeVar += a > 0.0 && a < 1.0 ? var : 0.0;  // no branch: it is mispredicted
+                a = std::clamp(a, 0.0, 1.0);
+            } else {
+                a = k <= 0 ? 1.0 : 0.0;
+            }
+            u.sum += a;
+            previous = a;
+        }
+        u.ok = true;
+        return u;
+    };
     std::vector<std::uint8_t> edges(static_cast<std::size_t>(roi.width));
     for (int y = 0; y < roi.height; ++y) {
         // Most of the feature's pixels are inside: only its edge pixels are looked at.
@@ -527,71 +650,41 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     freeEdges.push_back({mid, 1.0 / 12.0});
                     continue;
                 }
-                // Local colours: up to three pixels two steps inside and outside.
-                const int tx = -d.dy, ty = d.dx;  // along the edge
-                cv::Vec3f t(0, 0, 0), b(0, 0, 0);
-                int nt = 0, nb = 0;
-                for (int k = -1; k <= 1; ++k) {
-                    const int ix = x - 2 * d.dx + k * tx, iy = y - 2 * d.dy + k * ty;
-                    if (label(ix, iy) == kFeature) {
-                        t += colour(ix, iy);
-                        ++nt;
-                    }
-                    const int ox = x + 3 * d.dx + k * tx, oy = y + 3 * d.dy + k * ty;
-                    const int lo = label(ox, oy);
-                    if (lo == kOutside || lo == kBackground) {
-                        b += colour(ox, oy);
-                        ++nb;
+                const EdgeSamples samples = samplesAt(x, y, d);
+                if (samples.wall) {
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0), true});
+                    freeEdges.push_back({mid, 1.0 / 12.0});
+                    continue;
+                }
+                cv::Vec3d background;
+                backgroundAt(x, y, d, 3, background);
+                Unmixed u = unmix(samples, background);
+                // The background's colour must come from beyond the edge's
+                // blur (the pixel's own extent and the demosaic's pixel on
+                // either side): where the filter stopped short of the edge (a
+                // sphere's limb in shadow, whose mixed pixels the demosaic
+                // gives false colours), three pixels beyond the mask are
+                // still within it, the background taken there carries some
+                // of the target's colour, and every coverage it gives is too
+                // low. Measured again beyond the edge found: on a Bayer
+                // mosaic the lamp's side moved a sphere's outline by 0.02-0.09
+                // px (docs/accuracy.md, "The thirteenth round"). Where the
+                // colours three pixels beyond were too close to the target's
+                // to unmix at all, they may be the mixed pixels too.
+                const double e0 = u.sum - 1.5;
+                if (!u.ok || e0 > 0.5) {
+                    const int further = u.ok ? std::min(2, static_cast<int>(std::ceil(e0 - 0.5))) : 2;
+                    if (backgroundAt(x, y, d, 3 + further, background)) {
+                        const Unmixed again = unmix(samples, background);
+                        if (again.ok) u = again;
                     }
                 }
-                t = nt > 0 ? t * (1.0f / nt) : targetMean;
-                b = nb > 0 ? b * (1.0f / nb) : backgroundMean;
-                // Unmixing: a pixel that sees coverage a of the target and 1 - a
-                // of the background has colour v = beta t + (1 - a) b, where
-                // beta = a c takes the target's shading c at the very edge
-                // (darker than t two pixels inside, on a sphere's limb): with
-                // M = [t | -b], (beta, a) = M^+ (v - b). The target's colour
-                // differs from the background's in its ratios (that is what
-                // the filter found), so t and b are not parallel.
-                const cv::Vec3d tv(t), bv(b);
-                const double mtt = tv.dot(tv), mtb = -tv.dot(bv), mbb = bv.dot(bv);
-                const double det = mtt * mbb - mtb * mtb;
-                if (!(det > 1e-6 * mtt * mbb)) {  // colours (nearly) parallel
+                if (!u.ok) {
                     out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
                     freeEdges.push_back({mid, 1.0 / 12.0});
                     continue;
                 }
-                // Row of M^+ that gives a: (-mtb t^T + mtt (-b)^T) / det.
-                const cv::Vec3d w = (tv * (-mtb) - bv * mtt) * (1.0 / det);
-                const double var = w[0] * w[0] * noiseVar[0] + w[1] * w[1] * noiseVar[1] + w[2] * w[2] * noiseVar[2];
-                if (var > 0.15 * 0.15) {  // too little contrast here
-                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
-                    freeEdges.push_back({mid, 1.0 / 12.0});
-                    continue;
-                }
-                // Coverage of the five pixels across the edge (one inside the
-                // mask, three beyond it: where the target darkens towards its
-                // limb, the filter may stop a pixel or two short of the
-                // edge); the edge lies at e = sum - 1.5 pixels from this
-                // pixel's centre.
-                double sum = 0.0, edgeVar = 0.0;
-                double previous = 1.0;
-                for (int k = -1; k <= 3; ++k) {
-                    // The fifth pixel only while the edge has not been crossed.
-                    if (k == 3 && previous < 0.25) break;
-                    const int sx = x + k * d.dx, sy = y + k * d.dy;
-                    const int ls = label(sx, sy);
-                    double a;
-                    if (ls == kFeature || ls == kBackground || ls == kOutside) {
-                        a = (cv::Vec3d(colour(sx, sy)) - bv).dot(w);
-                        edgeVar += a > 0.0 && a < 1.0 ? var : 0.0;  // no branch: it is mispredicted
-                        a = std::clamp(a, 0.0, 1.0);
-                    } else {
-                        a = k <= 0 ? 1.0 : 0.0;  // beyond the region or another target: the mask's side
-                    }
-                    sum += a;
-                    previous = a;
-                }
+                const double sum = u.sum, edgeVar = u.edgeVar;
                 const double e = std::clamp(sum - 1.5, -0.5, 2.5);
                 const double delta = e - 0.5;  // outwards from the mask's edge
                 const cv::Point2d p(roi.x + x + e * d.dx, roi.y + y + e * d.dy);

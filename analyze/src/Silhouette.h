@@ -39,6 +39,12 @@ struct OutlinePoint {
     cv::Point2d px;
     EdgeKind kind{EdgeKind::Free};
     double sigmaPx{0.0};  ///< standard deviation of its position along the edge normal (free edges)
+    /// A free edge that is the wall of a notch (the feature's own pixels again
+    /// a pixel or two beyond it): it looks along the outline, not out of it,
+    /// so it has no sub-pixel position (its pixel edge is kept). It tells
+    /// where the outline is to within the notch's depth, which is enough to
+    /// say that part of the outline is there, not to fit the outline to it.
+    bool wall{false};
 };
 
 struct Silhouette {

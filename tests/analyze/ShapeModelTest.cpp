@@ -802,6 +802,80 @@ TEST(Completeness, ASpeckInsideTheOutlineHidesPartOfTheTarget) {
     EXPECT_TRUE(c && (c->flags & kTargetWhole)) << flagsOf(c);
 }
 
+// Where the filter stops short of the edge (a limb in shadow, whose mixed
+// pixels the demosaic gives false colours) and where it cuts a notch into
+// it, the sub-pixel outline must still be the edge. A disc of 30 px whose
+// colours are mixed over a pixel either side of its edge (a 3x3 box blur of
+// the exact coverage, as the bilinear demosaic mixes them), noise-free; its
+// mask two pixels short of the edge over a sixth of the outline, and cut by a
+// notch two pixels wide and two deep at its top. Three pixels beyond the
+// short mask are within the mixed pixels: a background taken there pulled
+// that sixth 0.3-0.5 px in, and the notch's walls, looked across, gave
+// points 1.3-2.4 px inside; they are now marked as walls.
+TEST(Silhouette, TheOutlineIsTheEdgeWhereTheMaskStopsShortOrIsNotched) {
+    const cv::Point2d centre(80.3, 79.6);
+    const double radius = 30.0;
+    const cv::Vec3d target(2000, 18000, 40000), seabed(9000, 10000, 9000);  // B, G, R
+    cv::Mat exact(160, 160, CV_64FC3);
+    for (int y = 0; y < exact.rows; ++y)
+        for (int x = 0; x < exact.cols; ++x) {
+            int inside = 0;
+            for (int sy = 0; sy < 8; ++sy)
+                for (int sx = 0; sx < 8; ++sx)
+                    inside += cv::norm(cv::Point2d(x - 0.5 + (sx + 0.5) / 8, y - 0.5 + (sy + 0.5) / 8) - centre) < radius;
+            const double a = inside / 64.0;
+            exact.at<cv::Vec3d>(y, x) = target * a + seabed * (1.0 - a);
+        }
+    cv::Mat mixed;
+    cv::blur(exact, mixed, cv::Size(3, 3), cv::Point(-1, -1), cv::BORDER_REPLICATE);
+    ImageWork w;
+    mixed.convertTo(w.image, CV_16UC3);
+    cv::Mat mask(exact.size(), CV_8UC1, cv::Scalar(0));
+    for (int y = 0; y < mask.rows; ++y)
+        for (int x = 0; x < mask.cols; ++x) {
+            const cv::Point2d d = cv::Point2d(x, y) - centre;
+            const double theta = std::atan2(d.y, d.x);
+            const double shortBy = std::abs(theta) < M_PI / 6 ? 2.0 * std::pow(std::cos(3.0 * theta), 2) : 0.0;
+            const bool notch = (x == 79 || x == 80) && y < centre.y - radius + 2.0;
+            if (cv::norm(d) < radius - shortBy && !notch) mask.at<std::uint8_t>(y, x) = 255;
+        }
+    w.masks = {mask};
+    Feature feature;
+    feature.area = cv::countNonZero(mask);
+    feature.box = cv::boundingRect(mask);
+    for (int x = feature.box.x; x < feature.box.br().x; ++x)
+        if (mask.at<std::uint8_t>(feature.box.y, x) != 0) {
+            feature.boundary[kTopLeft] = {x, feature.box.y};
+            break;
+        }
+    w.features = {{feature}};
+    const detail::Silhouette s = detail::measureSilhouette(w, 0, feature, {0, 0, 160, 160}, 1.0);
+    ASSERT_TRUE(s.subPixel);
+    int onShortSide = 0, atNotch = 0, walls = 0;
+    for (const detail::OutlinePoint& p : s.outline) {
+        ASSERT_EQ(p.kind, detail::EdgeKind::Free);
+        const cv::Point2d d = p.px - centre;
+        const double error = cv::norm(d) - radius;
+        if (p.wall) {  // kept at its pixel edge, left out of the fit
+            ++walls;
+            EXPECT_TRUE(std::abs(d.x) < 2.0 && d.y < 0.0) << "a wall away from the notch, at " << p.px;
+        } else if (std::abs(std::atan2(d.y, d.x)) < M_PI / 12) {  // the mask 1-2 px short
+            ++onShortSide;
+            EXPECT_NEAR(error, 0.0, 0.1) << "where the mask stops short, at " << p.px;
+        } else if (std::abs(d.x) < 3.0 && d.y < 0.0) {
+            ++atNotch;
+            EXPECT_NEAR(error, 0.0, 0.1) << "at the notch, at " << p.px;
+        } else {
+            // Where the shortfall tapers off, its steps look along the
+            // outline through unmasked pixels of the target (0.33 px).
+            EXPECT_NEAR(error, 0.0, 0.35) << "at " << p.px;
+        }
+    }
+    EXPECT_GE(onShortSide, 12);
+    EXPECT_GE(atNotch, 4);
+    EXPECT_EQ(walls, 4);  // two rows on either side
+}
+
 // What lies just beyond a bin of the outline that no point supports tells
 // something in front of the target (a grey stone, silt: no filter passes
 // it) from a limb the filter left a bin short: foreignAtMissing() against the

@@ -74,7 +74,7 @@ struct AnalysisFrame {
     cv::Mat mosaicLightingFactors;
     bool samplesByteSwapped{false};
     /// The margin around each feature's box within which its working image is
-    /// computed when imagesAroundFeatures (the silhouettes read 4 px beyond).
+    /// computed when imagesAroundFeatures (the silhouettes read 6 px beyond a feature's box).
     static constexpr int kImageMarginPx = 8;
 
     ImageWork& at(Side side) { return images[side == Side::Left ? 0 : 1]; }
