@@ -667,8 +667,9 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 // still within it, the background taken there carries some
                 // of the target's colour, and every coverage it gives is too
                 // low. Measured again beyond the edge found: on a Bayer
-                // mosaic the lamp's side moved a sphere's outline by 0.02-0.09
-                // px (docs/accuracy.md, "The thirteenth round"). Where the
+                // mosaic, a sphere lit from one side had its shadowed limb
+                // pulled in by 0.15-0.19 px and its centre 0.03-0.09 px
+                // towards the lamp (docs/accuracy.md, "The thirteenth round"). Where the
                 // colours three pixels beyond were too close to the target's
                 // to unmix at all, they may be the mixed pixels too.
                 const double e0 = u.sum - 1.5;

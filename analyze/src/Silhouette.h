@@ -5,9 +5,11 @@
 /// with sub-pixel edges). What a binary mask cannot tell:
 /// - where the silhouette edge lies between two pixels: each boundary edge of
 ///   the mask is moved to the sub-pixel position where the image's colour
-///   crosses half-way between the target's colour and the background's,
-///   both taken next to that edge (demosaicing and optics blur the edge over
-///   two pixels, so four pixels across it are used);
+///   crosses half-way between the target's colour, taken next to that edge,
+///   and the background's, taken beyond the edge's blur (demosaicing and
+///   optics blur the edge over two pixels, so four pixels across it are
+///   used; the filter may stop up to two pixels short of it); a notch's
+///   side walls, which look along the outline, keep their pixel edge;
 /// - what is beyond each part of the edge: free background, the image edge,
 ///   the search window's edge, or another target's pixels (contact);
 /// - how well the centroid is known: the noise of the colour at the edge,
