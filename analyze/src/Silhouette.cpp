@@ -651,14 +651,19 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     continue;
                 }
                 const EdgeSamples samples = samplesAt(x, y, d);
-                if (samples.wall) {
-                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0), true});
-                    freeEdges.push_back({mid, 1.0 / 12.0});
-                    continue;
-                }
                 cv::Vec3d background;
                 backgroundAt(x, y, d, 3, background);
                 Unmixed u = unmix(samples, background);
+                if (samples.wall) {
+                    // At its pixel edge, with the noise its pixels' coverages
+                    // carry (as before walls were told apart; the pixel
+                    // edge's 1/12 px^2 tripled the covariance of a marker's
+                    // centroid at 0.64 m in data/sessions/lab).
+                    const double variance = u.ok ? u.edgeVar : 1.0 / 12.0;
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(variance), true});
+                    freeEdges.push_back({mid, variance});
+                    continue;
+                }
                 // The background's colour must come from beyond the edge's
                 // blur (the pixel's own extent and the demosaic's pixel on
                 // either side): where the filter stopped short of the edge (a
