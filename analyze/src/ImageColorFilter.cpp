@@ -20,6 +20,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -554,6 +555,12 @@ struct detail::ColorTest::Plan {
     Row row{nullptr};
     std::vector<RatioLimits<float>> ratioF;
     std::vector<RatioLimits<double>> ratioD;
+    /// With a veil: its hull's bounding box as ratio limits (one segment, in
+    /// ratioF or ratioD's type, a little wider: it only preselects), and the
+    /// hull's edges as a R + b G + c B >= 0 (veilRow), kMaxVeilEdges of them.
+    std::vector<RatioLimits<float>> veilBoundsF;
+    std::vector<RatioLimits<double>> veilBoundsD;
+    std::vector<float> veilEdges;
     HsvLimits<float> hsvF{};
     HsvLimits<double> hsvD{};
 };
@@ -561,6 +568,29 @@ struct detail::ColorTest::Plan {
 namespace {
 
 using Plan = detail::ColorTest::Plan;
+
+/// The most edges a veil's hull has: the hull of a convex polygon of at most
+/// six vertices (a box cut by two R/B lines) and a copy of it shrunk towards
+/// a point has at most two more.
+constexpr std::size_t kMaxVeilEdges = 8;
+
+/// Sets out[i] to 255 where box[i] (the hull's bounding box passed), G > 0
+/// and every edge e of the hull holds, e[0] R + e[1] G + e[2] B >= 0 (unused
+/// edges are 0, which holds); returns how many it set.
+AVATAR_KERNEL_CLONES int veilRow(const float* __restrict b, const float* __restrict g, const float* __restrict r,
+                                 const std::uint8_t* __restrict box, std::uint8_t* __restrict out, int n,
+                                 const float* __restrict edges) {
+    int set = 0;
+    for (int i = 0; i < n; ++i) {
+        float low = g[i] > 0.0f ? 0.0f : -1.0f;
+        for (std::size_t k = 0; k < kMaxVeilEdges; ++k)
+            low = std::min(low, edges[3 * k] * r[i] + edges[3 * k + 1] * g[i] + edges[3 * k + 2] * b[i]);
+        const bool pass = box[i] != 0 && low >= 0.0f && out[i] == 0;
+        set += pass;
+        out[i] = pass ? std::uint8_t{255} : out[i];
+    }
+    return set;
+}
 
 /// @p Kernel: ratioRow<T> or ratioRowAvx512<T> (ratioRowFor()).
 template <typename T, RatioKernel<T> Kernel>
@@ -581,7 +611,23 @@ bool ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t
         any = true;
         for (int i = 0; i < n; ++i) out[i] |= scratch[i];
     }
-    return any;
+    const auto& veilBounds = [&]() -> const std::vector<RatioLimits<T>>& {
+        if constexpr (std::is_same_v<T, float>) return plan.veilBoundsF;
+        else return plan.veilBoundsD;
+    }();
+    // A veil goes with no brightness bands (validateTargetType), so scratch is free.
+    if (veilBounds.empty() || !Kernel(b, g, r, scratch, n, veilBounds[0])) return any;
+    // The hull's edges only on the runs of 32 pixels the bounding box passed some of.
+    constexpr int kRun = 32;
+    int set = 0;
+    for (int from = 0; from < n; from += kRun) {
+        const int count = std::min(kRun, n - from);
+        if (std::find_if(scratch + from, scratch + from + count, [](std::uint8_t v) { return v != 0; }) ==
+            scratch + from + count)
+            continue;
+        set += veilRow(b + from, g + from, r + from, scratch + from, out + from, count, plan.veilEdges.data());
+    }
+    return set > 0 || any;
 }
 
 /// ratioRowErased with ratioRowAvx512 on a CPU that runs it, else with the
@@ -696,6 +742,87 @@ HsvLimits<T> hsvLimits(const TargetType& type, std::uint32_t n, double fullScale
     return lim;
 }
 
+/// The region of (R/G, B/G) a type's veil adds (TargetConfig.h, Veil): the
+/// convex hull of the veil's ranges' region (R/G and B/G, the type's by
+/// default, cut by the type's R/B range; open maxima at kOpenMax) and that
+/// region moved towards the veil's point by maxShare, counter-clockwise;
+/// empty when the ranges hold nothing.
+std::vector<cv::Point2d> veilHull(const TargetType& type) {
+    using P = cv::Point2d;
+    const auto top = [](double v) { return std::min(v, kOpenMax); };
+    const Veil& veil = *type.veil;
+    const Range rg = veil.redGreen.value_or(type.redGreen), bg = veil.blueGreen.value_or(type.blueGreen);
+    std::vector<P> region{{rg.min, bg.min}, {top(rg.max), bg.min}, {top(rg.max), top(bg.max)}, {rg.min, top(bg.max)}};
+    // R/B = x / y within [min, max]: x - min y >= 0 and max y - x >= 0.
+    const auto clip = [&](double a, double c) {  // keeps a x + c y >= 0
+        std::vector<P> out;
+        for (std::size_t i = 0; i < region.size(); ++i) {
+            const P& p = region[i];
+            const P& q = region[(i + 1) % region.size()];
+            const double fp = a * p.x + c * p.y, fq = a * q.x + c * q.y;
+            if (fp >= 0.0) out.push_back(p);
+            if ((fp >= 0.0) != (fq >= 0.0)) out.push_back(p + (q - p) * (fp / (fp - fq)));
+        }
+        region = out;
+    };
+    if (type.redBlue.min > 0.0) clip(1.0, -type.redBlue.min);
+    if (type.redBlue.max < kOpenMax && !region.empty()) clip(-1.0, type.redBlue.max);
+    if (region.size() < 3) return {};
+    const P v(veil.colourRgb[0] / veil.colourRgb[1], veil.colourRgb[2] / veil.colourRgb[1]);
+    std::vector<P> points = region;
+    for (const P& p : region) points.push_back(v + (p - v) * (1.0 - veil.maxShare));
+    // Andrew's monotone chain.
+    std::sort(points.begin(), points.end(), [](const P& a, const P& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    const auto cross = [](const P& o, const P& a, const P& b) { return (a - o).x * (b - o).y - (a - o).y * (b - o).x; };
+    std::vector<P> hull(2 * points.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        while (k >= 2 && cross(hull[k - 2], hull[k - 1], points[i]) <= 0.0) --k;
+        hull[k++] = points[i];
+    }
+    for (std::size_t i = points.size() - 1, t = k + 1; i-- > 0;) {
+        while (k >= t && cross(hull[k - 2], hull[k - 1], points[i]) <= 0.0) --k;
+        hull[k++] = points[i];
+    }
+    hull.resize(k > 0 ? k - 1 : 0);
+    return hull.size() >= 3 ? hull : std::vector<P>{};
+}
+
+/// The ratio limits of the hull's bounding box (R/B open), within the type's brightness.
+TargetType veilBounds(const TargetType& type, const std::vector<cv::Point2d>& hull) {
+    TargetType bounds = type;
+    bounds.veil.reset();
+    bounds.redGreen = {hull[0].x, hull[0].x};
+    bounds.blueGreen = {hull[0].y, hull[0].y};
+    for (const cv::Point2d& p : hull) {
+        bounds.redGreen = {std::min(bounds.redGreen.min, p.x), std::max(bounds.redGreen.max, p.x)};
+        bounds.blueGreen = {std::min(bounds.blueGreen.min, p.y), std::max(bounds.blueGreen.max, p.y)};
+    }
+    for (Range* r : {&bounds.redGreen, &bounds.blueGreen}) {
+        // A little wider, so that a limit's rounding in float never cuts the hull.
+        r->min *= 1.0 - 1e-5;
+        r->max = r->max >= kOpenMax ? 1e9 : r->max * (1.0 + 1e-5);
+    }
+    bounds.redBlue = {0.0, 1e9};  // the hull's edges hold the R/B range
+    return bounds;
+}
+
+/// The hull's edges as a R + b G + c B >= 0 (inside or on the edge, G > 0),
+/// each scaled to a largest coefficient of 1, then zeros to kMaxVeilEdges.
+std::vector<float> veilEdges(const std::vector<cv::Point2d>& hull) {
+    if (hull.size() > kMaxVeilEdges) throw InvalidState("veilEdges: a hull of " + std::to_string(hull.size()) + " edges");
+    std::vector<float> edges(3 * kMaxVeilEdges, 0.0f);
+    for (std::size_t i = 0; i < hull.size(); ++i) {
+        const cv::Point2d& p = hull[i];
+        const cv::Point2d d = hull[(i + 1) % hull.size()] - p;
+        // Left of p -> p + d: d.x (B/G - p.y) - d.y (R/G - p.x) >= 0, times G.
+        const double e[3] = {-d.y, d.y * p.x - d.x * p.y, d.x};
+        const double scale = std::max({std::abs(e[0]), std::abs(e[1]), std::abs(e[2])});
+        for (int c = 0; c < 3; ++c) edges[3 * i + c] = static_cast<float>(e[c] / scale);
+    }
+    return edges;
+}
+
 /// Float is exact for every limit of the type (always for 8-bit images)?
 bool floatIsExact(const TargetType& type, std::uint32_t n) {
     const auto ok = [&](const Range& r) {
@@ -715,7 +842,7 @@ Plan makePlan(const TargetType& type, cv::Size size, std::uint32_t n, int bitDep
     // Float (twice the SIMD width) whenever it is exact for this type's
     // limits: always for 8-bit images; for 16-bit ones only when the limit's
     // neighbouring fractions have small denominators (see limitIsExact).
-    const bool useFloat = floatIsExact(type, n);
+    bool useFloat = floatIsExact(type, n);
     if (type.filter == ColorFilterMethod::Hsv) {
         const double fullScale = std::ldexp(1.0, bitDepth) - 1.0;
         if (useFloat) {
@@ -725,12 +852,20 @@ Plan makePlan(const TargetType& type, cv::Size size, std::uint32_t n, int bitDep
             plan.hsvD = hsvLimits<double>(type, n, fullScale);
             plan.row = &hsvRowErased<double>;
         }
-    } else if (useFloat) {
-        plan.ratioF = ratioSegments<float>(type, n);
-        plan.row = ratioRowFor<float>();
     } else {
-        plan.ratioD = ratioSegments<double>(type, n);
-        plan.row = ratioRowFor<double>();
+        const std::vector<cv::Point2d> hull = type.veil ? veilHull(type) : std::vector<cv::Point2d>{};
+        const std::optional<TargetType> bounds =
+            hull.empty() ? std::nullopt : std::optional<TargetType>(veilBounds(type, hull));
+        if (useFloat) {
+            plan.ratioF = ratioSegments<float>(type, n);
+            if (bounds) plan.veilBoundsF = ratioSegments<float>(*bounds, n);
+            plan.row = ratioRowFor<float>();
+        } else {
+            plan.ratioD = ratioSegments<double>(type, n);
+            if (bounds) plan.veilBoundsD = ratioSegments<double>(*bounds, n);
+            plan.row = ratioRowFor<double>();
+        }
+        if (bounds) plan.veilEdges = veilEdges(hull);
     }
     return plan;
 }

@@ -427,13 +427,21 @@ std::vector<T> readList(Reader& r, const XMLElement* el, const std::string& path
     return out;
 }
 
+Veil readVeil(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"colourRgb", "maxShare", "redGreen", "blueGreen"});
+    Veil v{s.get("colourRgb", readVector3), s.get("maxShare", readDouble), std::nullopt, std::nullopt};
+    if (s.has("redGreen")) v.redGreen = s.get("redGreen", readRange);
+    if (s.has("blueGreen")) v.blueGreen = s.get("blueGreen", readRange);
+    return v;
+}
+
 std::vector<BrightnessBand> readBands(Reader& r, const XMLElement* el, const std::string& path) {
     return readList<BrightnessBand>(r, el, path, "band", readBand);
 }
 
 TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) {
     const Section s(r, el, path,
-                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "hsv", "erodeRestore",
+                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "veil", "hsv", "erodeRestore",
                      "erodeKernelSize", "area", "aspectRatio", "areaRatio", "window", "shape", "sizeMm"},
                     {"name"});
     TargetType t;
@@ -453,6 +461,9 @@ TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) 
         t.brightness = s.get("brightness", readRange);
     }
     s.getOptional("brightnessBands", t.brightnessBands, readBands);
+    if (s.has("veil")) {
+        t.veil = s.get("veil", readVeil);
+    }
     s.getIf(!rgb, "hsv", t.hsv, readHsv, "required when <filter> is hsv");
     s.getOptional("erodeRestore", t.erodeRestore, readBool);
     s.getOptional("erodeKernelSize", t.erodeKernelSize, readInt);

@@ -257,6 +257,19 @@ void validateTarget(const Checker& k, const TargetType& t, const std::string& p)
             }
         }
     }
+    if (t.veil) {
+        const std::string vp = p + "/veil";
+        if (t.filter != ColorFilterMethod::RgbRatio) k.fail(vp, "a veil needs <filter> rgb_ratio");
+        if (!t.brightnessBands.empty()) k.fail(vp, "a veil cannot be combined with brightness bands");
+        k.allBetween(t.veil->colourRgb, 0.0, kInf, vp + "/colourRgb");
+        k.positive(t.veil->colourRgb[1], vp + "/colourRgb", "G (component 2)");
+        k.finite(t.veil->maxShare, vp + "/maxShare");
+        if (t.veil->redGreen) k.range(*t.veil->redGreen, 0.0, kInf, vp + "/redGreen");
+        if (t.veil->blueGreen) k.range(*t.veil->blueGreen, 0.0, kInf, vp + "/blueGreen");
+        if (!(t.veil->maxShare > 0.0 && t.veil->maxShare < 1.0))
+            k.fail(vp + "/maxShare", "must be above 0 and below 1 (at 1 the veil alone passes), got " +
+                                         formatDouble(t.veil->maxShare));
+    }
     // A hue range with min > max wraps through 0.
     k.range(t.hsv.hue, 0.0, 360.0, p + "/hsv/hue", /*ordered=*/false);
     k.range(t.hsv.saturation, 0.0, 1.0, p + "/hsv/saturation");

@@ -105,6 +105,14 @@ void writeTarget(Writer& w, const TargetType& t) {
         }
         w.close();
     }
+    if (t.veil) {
+        w.open("veil");
+        w.vector("colourRgb", t.veil->colourRgb);
+        w.number("maxShare", t.veil->maxShare);
+        if (t.veil->redGreen) w.range("redGreen", *t.veil->redGreen);
+        if (t.veil->blueGreen) w.range("blueGreen", *t.veil->blueGreen);
+        w.close();
+    }
     w.open("hsv");
     w.range("hue", t.hsv.hue);
     w.range("saturation", t.hsv.saturation);

@@ -581,6 +581,84 @@ TEST(ColorFilter, BandsAreValidated) {
     EXPECT_THROW(colorFilterMasks(cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 1, 1)), 8, {t}, masks), InvalidArgument);
 }
 
+// A green target seen through haze: its pixels are t J + (1 - t) V, V the
+// water's backscatter (0.7 : 1 : 1), so they leave its B/G range (0.2-0.3)
+// towards V's. With the veil the type accepts them while the veil's share of
+// G is at most maxShare, and nothing else: not V itself, not a grey seabed
+// mixed with V, not a colour beside the hull.
+TEST(ColorFilter, AVeilAcceptsTheTypesColourMixedWithItUpToItsShare) {
+    const std::array<double, 3> green{0.12, 0.6, 0.15}, veil{0.7, 1.0, 1.0}, seabed{0.55, 0.5, 0.4};
+    // The colour whose G is made of share s of the veil's and 1 - s of @p c's.
+    const auto mixed = [](const std::array<double, 3>& c, const std::array<double, 3>& v, double s, double g) {
+        Bgr px{};
+        const double kc = (1.0 - s) * g / c[1], kv = s * g / v[1];
+        px.r = static_cast<int>(std::lround(kc * c[0] + kv * v[0]));
+        px.g = static_cast<int>(std::lround(kc * c[1] + kv * v[1]));
+        px.b = static_cast<int>(std::lround(kc * c[2] + kv * v[2]));
+        return px;
+    };
+    std::vector<Bgr> px;
+    std::vector<int> expected;
+    for (double s : {0.0, 0.1, 0.2, 0.28}) {
+        px.push_back(mixed(green, veil, s, 30000.0));
+        expected.push_back(255);
+    }
+    for (double s : {0.36, 0.5, 0.8, 1.0}) {  // beyond the share; the veil alone
+        px.push_back(mixed(green, veil, s, 30000.0));
+        expected.push_back(0);
+    }
+    for (double s : {0.0, 0.3, 0.6, 0.9}) {  // the seabed through the same haze
+        px.push_back(mixed(seabed, veil, s, 30000.0));
+        expected.push_back(0);
+    }
+    // Beside the hull: the veiled green at share 0.2 with B/G 15 % up or down.
+    Bgr off = mixed(green, veil, 0.2, 30000.0);
+    off.b = static_cast<int>(off.b * 1.3);
+    px.push_back(off);
+    expected.push_back(0);
+    const cv::Mat image = imageOf<std::uint16_t>(px, 1);
+    TargetType t = ratioType({0.1, 0.3}, {0.0, 1e9}, {0.2, 0.3});
+    std::vector<int> without(expected.size(), 0);
+    without[0] = 255;  // share 0.1 already has B/G 0.325
+    EXPECT_EQ(maskValues(filterOne(image, 16, t)), without);
+    t.veil = Veil{veil, 0.3, std::nullopt, std::nullopt};
+    EXPECT_EQ(maskValues(filterOne(image, 16, t)), expected);
+    // Scaled to 8 bits the verdicts are the same (the ratios barely move).
+    std::vector<Bgr> small = px;
+    for (Bgr& p : small) p = {p.b / 128, p.g / 128, p.r / 128};
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(small, 1), 8, t)), expected);
+    // The brightness range still holds.
+    t.brightness = Range{0.0, 30000.0};
+    std::vector<int> dim(expected.size(), 0);
+    EXPECT_EQ(maskValues(filterOne(image, 16, t)), dim);
+}
+
+TEST(ColorFilter, AVeilIsValidated) {
+    std::vector<cv::Mat> masks;
+    const cv::Mat image(2, 2, CV_8UC3, cv::Scalar(1, 1, 1));
+    const auto message = [&](const TargetType& t) {
+        try {
+            colorFilterMasks(image, 8, {t}, masks);
+        } catch (const InvalidArgument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    TargetType t = ratioType({0.1, 0.3}, {0.0, 1e9}, {0.2, 0.3});
+    t.veil = Veil{{0.7, 0.0, 1.0}, 0.3, std::nullopt, std::nullopt};
+    EXPECT_NE(message(t).find("/veil/colourRgb: G (component 2) must be > 0, got 0"), std::string::npos)
+        << message(t);
+    t.veil = Veil{{0.7, 1.0, 1.0}, 1.0, std::nullopt, std::nullopt};
+    EXPECT_NE(message(t).find("/veil/maxShare: must be above 0 and below 1"), std::string::npos) << message(t);
+    t.veil = Veil{{0.7, 1.0, 1.0}, 0.3, std::nullopt, std::nullopt};
+    t.brightnessBands = {BrightnessBand{{0.0, 200.0}, {0.1, 0.3}, {0.0, 1e9}, {0.2, 0.3}}};
+    EXPECT_NE(message(t).find("/veil: a veil cannot be combined with brightness bands"), std::string::npos)
+        << message(t);
+    t.brightnessBands.clear();
+    t.filter = ColorFilterMethod::Hsv;
+    EXPECT_NE(message(t).find("/veil: a veil needs <filter> rgb_ratio"), std::string::npos) << message(t);
+}
+
 // The row kernel (an AVX-512 one where the CPU has it, the portable loop
 // elsewhere) against the definition, pixel by pixel: every row width from 1
 // to 40 (whole 16-pixel steps and every remainder), and the pixels where a

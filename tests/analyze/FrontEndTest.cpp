@@ -88,6 +88,13 @@ std::vector<TargetType> filterTypes(cv::Size size) {
     hsv.hsv.saturation = {0.1, 0.9};
     hsv.hsv.value = {0.2, 1.0};
     types.push_back(hsv);
+    TargetType veiled;  // haze: the hull of its box and the box moved towards the veil
+    veiled.name = "veiled";
+    veiled.redGreen = {0.4, 0.9};
+    veiled.blueGreen = {0.3, 0.7};
+    veiled.redBlue = {0.8, 2.5};
+    veiled.veil = Veil{{0.7, 1.0, 1.0}, 0.4, Range{0.5, 0.7}, std::nullopt};
+    types.push_back(veiled);
     TargetType windowed = wide;
     windowed.name = "windowed";
     windowed.window = {size.width / 5, size.height / 3, size.width / 2, size.height / 2};

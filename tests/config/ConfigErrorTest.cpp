@@ -317,6 +317,14 @@ const std::vector<BadDocument> kBadDocuments = {
      "t.xml:26: /avatar/targets/target[2]/brightnessBands/band[1]: missing required element <redGreen>"},
     {"brightness bands hold bands only", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><brightnessBands><range/></brightnessBands>"}},
      "t.xml:26: /avatar/targets/target[2]/brightnessBands/range: unknown element <range>"},
+
+    // The haze's veil.
+    {"veil of two colours", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><veil><colourRgb>0.7 1</colourRgb><maxShare>0.3</maxShare></veil>"}},
+     "t.xml:26: /avatar/targets/target[2]/veil/colourRgb: expected 3 numbers, got 2"},
+    {"veil without a share", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><veil><colourRgb>0.7 1 1</colourRgb></veil>"}},
+     "t.xml:26: /avatar/targets/target[2]/veil: missing required element <maxShare>"},
+    {"veil's share of all", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><veil><colourRgb>0.7 1 1</colourRgb><maxShare>1</maxShare></veil>"}},
+     "t.xml:26: /avatar/targets/target[2]/veil/maxShare: must be above 0 and below 1 (at 1 the veil alone passes), got 1"},
 };
 
 class BadDocumentTest : public ::testing::TestWithParam<BadDocument> {};
@@ -440,6 +448,15 @@ const std::vector<BadConfig> kBadConfigs = {
     {"brightness band reversed",
      [](AvatarConfig& c) { c.targets.targets[1].brightnessBands = {BrightnessBand{{0, 9}, {2, 1}, {1, 2}, {0, 1}}}; },
      "<memory>:0: /avatar/targets/target[2]/brightnessBands/band[1]/redGreen: min 2 is above max 1"},
+    {"veil on an hsv filter",
+     [](AvatarConfig& c) { c.targets.targets[0].veil = Veil{{0.7, 1, 1}, 0.3, std::nullopt, std::nullopt}; },
+     "<memory>:0: /avatar/targets/target[1]/veil: a veil needs <filter> rgb_ratio"},
+    {"veil without green",
+     [](AvatarConfig& c) { c.targets.targets[1].veil = Veil{{0.7, 0, 1}, 0.3, std::nullopt, std::nullopt}; },
+     "<memory>:0: /avatar/targets/target[2]/veil/colourRgb: G (component 2) must be > 0, got 0"},
+    {"veil's ranges reversed",
+     [](AvatarConfig& c) { c.targets.targets[1].veil = Veil{{0.7, 1, 1}, 0.3, Range{2, 1}, std::nullopt}; },
+     "<memory>:0: /avatar/targets/target[2]/veil/redGreen: min 2 is above max 1"},
     {"hue above 360", [](AvatarConfig& c) { c.targets.targets[0].hsv.hue.max = 400; },
      "<memory>:0: /avatar/targets/target[1]/hsv/hue/max: must be between 0 and 360, got 400"},
     {"saturation reversed", [](AvatarConfig& c) { c.targets.targets[0].hsv.saturation = {0.9, 0.1}; },

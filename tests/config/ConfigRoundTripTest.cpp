@@ -174,6 +174,12 @@ std::vector<Mutation> mutations() {
         c.targets.targets[1].brightnessBands = {BrightnessBand{{0, 90.5}, {1.0 / 3.0, 2}, {0.5, 1e9}, {0, 0.25}},
                                                 BrightnessBand{{91, 300}, {1.25, 1.5}, {0.75, 2}, {0.125, 1}}};
     });
+    add("target[2].veil set", [](AvatarConfig& c) {
+        c.targets.targets[1].veil = Veil{{0.7, 1.0, 0.97}, 0.35, std::nullopt, std::nullopt};
+    });
+    add("target[2].veil with its own ranges", [](AvatarConfig& c) {
+        c.targets.targets[1].veil = Veil{{0.7, 1.0, 0.97}, 0.35, Range{0.125, 0.25}, Range{0.2, 0.3}};
+    });
     hsv("hue", &HsvRanges::hue);
     hsv("saturation", &HsvRanges::saturation);
     hsv("value", &HsvRanges::value);

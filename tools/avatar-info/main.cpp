@@ -26,6 +26,13 @@ std::string rangeText(const Range& r) {
     return buf;
 }
 
+std::string veilText(const Veil& v) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "R:G:B %g:%g:%g up to %g of G", v.colourRgb[0], v.colourRgb[1], v.colourRgb[2],
+                  v.maxShare);
+    return buf;
+}
+
 void printConfig(const AvatarConfig& c, std::ostream& out) {
     const auto& cam = c.camera;
     out << "camera:   " << cam.width << "x" << cam.height << ", " << cam.bitDepth << "-bit, "
@@ -57,6 +64,7 @@ void printConfig(const AvatarConfig& c, std::ostream& out) {
                     ? "R/G " + rangeText(t.redGreen) + ", R/B " + rangeText(t.redBlue) + ", B/G " +
                           rangeText(t.blueGreen)
                     : std::string("hsv"))
+            << (t.veil ? ", veil " + veilText(*t.veil) : std::string())
             << ", area " << rangeText(t.area) << " px" << (t.erodeRestore ? ", erode+restore" : "")
             << "\n";
     }

@@ -3,6 +3,7 @@
 /// Colour filter, feature locator and search window of each target type
 /// (thesis 3.3, 4.2.4).
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -76,6 +77,30 @@ struct BrightnessBand {
     }
 };
 
+/// The veil a target's colour may be seen through (haze, thesis 3.6.1): light
+/// scattered back by the water towards the camera adds the water's colour V
+/// to every pixel, the more the farther the object. A pixel of a target seen
+/// through it is t J + (1 - t) V, so its ratio point (R/G, B/G) lies on the
+/// segment from the target's own colour's towards V's; `maxShare` bounds the
+/// veil's share of the pixel's G. With a veil, an RGB-ratio type accepts,
+/// besides what its ranges accept, every colour of the veil's ranges (its
+/// own by default, cut by its R/B range) mixed with V up to that share: the
+/// convex hull, in the (R/G, B/G) plane, of that region and the region moved
+/// towards V by `maxShare`; all within its brightness range.
+struct Veil {
+    std::array<double, 3> colourRgb{0.0, 1.0, 0.0};  ///< R, G, B of the backscatter as the cameras see it; any scale, G > 0
+    double maxShare{0.0};                            ///< the veil's largest share of a pixel's G, in (0, 1)
+    /// The colour the veil acts on (the target's in clear water), when
+    /// narrower than the type's ranges (which may follow the water's
+    /// absorption too); unset: the type's own.
+    std::optional<Range> redGreen;
+    std::optional<Range> blueGreen;
+    bool operator==(const Veil& o) const {
+        return colourRgb == o.colourRgb && maxShare == o.maxShare && redGreen == o.redGreen &&
+               blueGreen == o.blueGreen;
+    }
+};
+
 /// The most brightness bands a target type may have.
 inline constexpr std::size_t kMaxBrightnessBands = 16;
 
@@ -91,6 +116,8 @@ struct TargetType {
     /// Ratio ranges by brightness (rgb_ratio only; at most 16, not
     /// overlapping). Pixels in no band use redGreen, redBlue, blueGreen.
     std::vector<BrightnessBand> brightnessBands;
+    /// The site's haze (rgb_ratio without brightness bands only); unset: none.
+    std::optional<Veil> veil;
     HsvRanges hsv;              ///< used when filter == Hsv
     bool erodeRestore{false};   ///< erode, then feature-AND restore (thesis 3.3.2)
     int erodeKernelSize{3};     ///< odd, 1..31
@@ -111,7 +138,7 @@ struct TargetType {
     bool operator==(const TargetType& o) const {
         return name == o.name && filter == o.filter && redGreen == o.redGreen &&
                redBlue == o.redBlue && blueGreen == o.blueGreen && brightness == o.brightness &&
-               brightnessBands == o.brightnessBands &&
+               brightnessBands == o.brightnessBands && veil == o.veil &&
                hsv == o.hsv && erodeRestore == o.erodeRestore &&
                erodeKernelSize == o.erodeKernelSize && area == o.area &&
                aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window &&
