@@ -17,7 +17,9 @@
 //    the predicted position sigma against the error.
 //
 //   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR] [--sizes]
-//                (--sizes: each type's size range trained too, as sizeMm)
+//                [--no-veil]
+//                (--sizes: each type's size range trained too, as sizeMm; --no-veil: the
+//                filters without the haze's veil)
 //   trust_report --covariance REPEATS [--seed S] [--covariance-centroids] [--covariance-range SCALE]
 //                (predicted sigma against the spread; every target placed by its
 //                centroids; the targets SCALE times as far)
@@ -25,6 +27,7 @@
 #include "../analyze/AccuracyHarness.h"
 
 #include <avatar/analyze/AnalyzeStereoImagePair.h>
+#include <avatar/analyze/ImageColorFilter.h>
 #include <avatar/common/Logging.h>
 #include <avatar/config/ConfigXml.h>
 #include <avatar/render/Renderer.h>
@@ -62,6 +65,7 @@ struct Options {
     /// type's range is wide; on seed 11 it flagged no false whole and lost
     /// two discs (docs/accuracy.md).
     bool sizes{false};
+    bool veil{true};  ///< the filters take the haze's veil (trainVeil)
     std::string dumpDir;  ///< non-empty: crops of each false or missed target are written there
     int covarianceRepeats{0};  ///< > 0: only the covariance check, with this many noise seeds
     TargetShape covarianceShape{TargetShape::Sphere};  ///< what its types are declared
@@ -220,19 +224,142 @@ void backgroundPixels(const cv::Mat& img, const render::GroundTruth& truth, bool
         }
 }
 
+/// The colour of (exp a, 1, exp b) for a log chroma (a, b), as a unit vector.
+cv::Vec3d unitColour(const cv::Point2d& chroma) {
+    const cv::Vec3d c(std::exp(chroma.x), 1.0, std::exp(chroma.y));
+    return c / cv::norm(c);
+}
+
+/// How many of @p chroma (log R/G, log B/G) pass @p type's filter.
+std::size_t passing(const TargetType& type, const std::vector<cv::Point2d>& chroma) {
+    if (chroma.empty()) return 0;
+    cv::Mat image(1, static_cast<int>(chroma.size()), CV_16UC3);
+    for (std::size_t i = 0; i < chroma.size(); ++i) {
+        const double r = std::exp(chroma[i].x), b = std::exp(chroma[i].y);
+        const double g = 4000.0 / std::max({1.0, r, b});  // every channel within 16 bits
+        image.at<cv::Vec3w>(0, static_cast<int>(i)) = cv::Vec3w(cv::saturate_cast<std::uint16_t>(b * g),
+                                                               cv::saturate_cast<std::uint16_t>(g),
+                                                               cv::saturate_cast<std::uint16_t>(r * g));
+    }
+    std::vector<cv::Mat> masks;
+    colorFilterMasks(image, 16, {type}, masks);
+    return static_cast<std::size_t>(cv::countNonZero(masks[0]));
+}
+
+/// The haze's veil (TargetConfig.h, Veil), measured on the training scenes
+/// as a site would: a target seen through haze has a colour in the plane of
+/// its clear colour and the veil's (t J + (1 - t) V), so the veil's colour is
+/// the direction common to every such plane, the least-squares one (the
+/// normals' smallest eigenvector), from the targets in haze alone (no water)
+/// whose median colour moved by more than 0.1 (log) from their type's median
+/// outside water and haze. The veil acts on each type's colour outside water
+/// and haze (its targets' medians there, 0.1 wider in log, within its
+/// ranges; the water's growth of the R/G minimum is not veiled), up to the
+/// largest share (steps of 0.02, at most 0.9) whose hull takes in next to
+/// none of the other colours' pixels and the background's (the limits of
+/// the R/G growth) and at most 1 % of the pixels on the edges of its whole
+/// spheres outside haze (mixed with what lies behind them: orange mixed with
+/// the seabed lies on its way to the veil). No veil with fewer than three
+/// targets in haze that moved.
+void trainVeil(AvatarConfig& config, const std::map<std::string, std::vector<cv::Point2d>>& clearChroma,
+               const std::vector<std::pair<std::string, cv::Point2d>>& hazyChroma,
+               const std::map<std::string, std::vector<cv::Point2d>>& edgeChroma,
+               const std::map<std::string, std::vector<double>>& rg, const std::map<std::string, std::vector<double>>& bg,
+               const std::vector<cv::Point2d>& background) {
+    std::map<std::string, cv::Point2d> clear;
+    std::map<std::string, std::pair<Range, Range>> source;  // the clear targets' medians, 0.1 wider (log)
+    for (const auto& [name, v] : clearChroma) {
+        std::vector<double> a, b;
+        for (const cv::Point2d& c : v) a.push_back(c.x), b.push_back(c.y);
+        clear[name] = cv::Point2d(quantile(a, 0.5), quantile(b, 0.5));
+        const auto [a0, a1] = std::minmax_element(a.begin(), a.end());
+        const auto [b0, b1] = std::minmax_element(b.begin(), b.end());
+        source[name] = {Range{std::exp(*a0 - 0.1), std::exp(*a1 + 0.1)}, Range{std::exp(*b0 - 0.1), std::exp(*b1 + 0.1)}};
+    }
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    int planes = 0;
+    for (const auto& [name, c] : hazyChroma) {
+        const auto j = clear.find(name);
+        if (j == clear.end() || cv::norm(c - j->second) < 0.1) continue;
+        cv::Vec3d n = unitColour(j->second).cross(unitColour(c));
+        n /= cv::norm(n);
+        scatter += n * n.t();
+        ++planes;
+    }
+    std::printf("\nVeil (haze's backscatter), from %d targets in haze: ", planes);
+    if (planes < 3) {
+        std::printf("none\n");
+        return;
+    }
+    cv::Mat values, vectors;
+    cv::eigen(cv::Mat(scatter), values, vectors);  // descending
+    cv::Vec3d v(vectors.at<double>(2, 0), vectors.at<double>(2, 1), vectors.at<double>(2, 2));
+    if (v[1] < 0.0) v = -v;
+    if (v[0] < -0.05 || v[2] < -0.05 || v[1] < 0.05) {
+        std::printf("none (%.3f, %.3f, %.3f is no colour)\n", v[0], v[1], v[2]);
+        return;
+    }
+    const std::array<double, 3> colour{std::max(0.0, v[0] / v[1]), 1.0, std::max(0.0, v[2] / v[1])};
+    std::printf("R:G:B %.3f:1:%.3f\n\n| type   | maxShare | R/G acted on | B/G acted on | stopped by (pixels taken in / limit) |\n|--------|----------|---|---|---|\n", colour[0], colour[2]);
+    const std::size_t backgroundLimit = std::max<std::size_t>(5, background.size() / 50000);
+    for (TargetType& t : config.targets.targets) {
+        std::vector<cv::Point2d> others;
+        for (const auto& [other, pixels] : rg)
+            if (other != t.name)
+                for (std::size_t i = 0; i < pixels.size(); ++i) others.emplace_back(pixels[i], bg.at(other)[i]);
+        const std::size_t othersLimit = std::max<std::size_t>(5, others.size() / 2000);
+        const std::size_t others0 = passing(t, others), background0 = passing(t, background);
+        static const std::vector<cv::Point2d> kNone;
+        const auto e = edgeChroma.find(t.name);
+        const std::vector<cv::Point2d>& edges = e == edgeChroma.end() ? kNone : e->second;
+        const std::size_t edges0 = passing(t, edges), edgeLimit = edges.size() / 100;
+        const auto from = source.find(t.name);
+        if (from == source.end()) continue;
+        const Range veilRg{std::max(t.redGreen.min, from->second.first.min), std::min(t.redGreen.max, from->second.first.max)};
+        const Range veilBg{std::max(t.blueGreen.min, from->second.second.min),
+                           std::min(t.blueGreen.max, from->second.second.max)};
+        if (veilRg.min > veilRg.max || veilBg.min > veilBg.max) continue;
+        double share = 0.0;
+        std::string stop = "the 0.9 cap";
+        for (double s = 0.02; s <= 0.9 + 1e-9; s += 0.02) {
+            TargetType veiled = t;
+            veiled.veil = Veil{colour, s, veilRg, veilBg};
+            const std::size_t no = passing(veiled, others) - others0, nb = passing(veiled, background) - background0,
+                              ne = passing(veiled, edges) - edges0;
+            if (no > othersLimit || nb > backgroundLimit || ne > edgeLimit) {
+                char why[160];
+                std::snprintf(why, sizeof why, "at %.2f: other colours %zu/%zu, background %zu/%zu, edges %zu/%zu", s,
+                              no, othersLimit, nb, backgroundLimit, ne, edgeLimit);
+                stop = why;
+                break;
+            }
+            share = s;
+        }
+        if (share > 0.0) t.veil = Veil{colour, share, veilRg, veilBg};
+        std::printf("| %-6s | %.2f | %.3f-%.3f | %.3f-%.3f | %s |\n", t.name.c_str(), share, veilRg.min, veilRg.max,
+                    veilBg.min, veilBg.max, stop.c_str());
+    }
+}
+
 /// Measures each colour's R/G and B/G on the training scenes (pixels within
 /// 0.55 of the equivalent radius of fully visible targets, in the analysed
 /// image) and sets the filters: 0.2-99.8 % quantiles widened by 5 %; each
 /// R/G minimum lowered where the water takes the colour and nothing else is
 /// (against the other colours' pixels and the scenes' background pixels);
 /// then where two colours' boxes overlap in both ratios, the ratio whose
-/// medians differ most is split at the midpoint of the overlap (in log).
+/// medians differ most is split at the midpoint of the overlap (in log);
+/// last the haze's veil (trainVeil).
 AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, const render::SensorFormat& sensor) {
     AvatarConfig config = baseConfig();
     AnalyzeStereoImagePair analysis(config);
     analysis.setKeepWholeImages(true);  // the colours are read from the whole images
     std::map<std::string, std::vector<double>> rg, bg, sizes;
     std::vector<cv::Point2d> background;  // log R/G, log B/G of pixels away from every target
+    // Each whole target's median log chroma (left view), in clear water and in haze alone.
+    std::map<std::string, std::vector<cv::Point2d>> clearChroma;
+    std::vector<std::pair<std::string, cv::Point2d>> hazyChroma;
+    // The edge pixels of whole spheres outside haze (mixed with what is behind them), by type.
+    std::map<std::string, std::vector<cv::Point2d>> edgeChroma;
     const auto train = scenes(o.trainScenes, o.trainSeed, stereo, sensor);
     for (std::size_t k = 0; k < train.size(); ++k) {
         const auto rr = renderScene(train[k], stereo, sensor, renderSeed(o.trainSeed, k));
@@ -252,6 +379,25 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
                     std::sqrt(t.left.areaPx / M_PI) * cv::norm(t.centreLeftMm) / stereo.left.fc[0] +
                     std::sqrt(t.right.areaPx / M_PI) * cv::norm(t.centreRightMm) / stereo.right.fc[0]);
             }
+            const render::Lighting& light = train[k].lighting;
+            const bool water = light.attenuationPerM[0] + light.attenuationPerM[1] + light.attenuationPerM[2] > 0.0;
+            if (!water && t.right.visibility == render::TargetVisibility::Full && t.left.areaPx >= 300.0)
+                if (const auto c = centralChroma(analysis.lastFrame().at(Side::Left).image, t.left)) {
+                    if (light.turbidityPerM > 0.0) hazyChroma.emplace_back(t.type, *c);
+                    else clearChroma[t.type].push_back(*c);
+                }
+            if (light.turbidityPerM == 0.0 && t.shape == render::Shape::Sphere &&
+                t.left.visibility == render::TargetVisibility::Full && t.left.silhouetteCentroidPx) {
+                const cv::Mat& img = analysis.lastFrame().at(Side::Left).image;
+                const double r = std::sqrt(t.left.areaPx / M_PI);
+                const cv::Point2d c = *t.left.silhouetteCentroidPx;
+                for (int y = static_cast<int>(c.y - r - 2); y <= static_cast<int>(c.y + r + 2); ++y)
+                    for (int x = static_cast<int>(c.x - r - 2); x <= static_cast<int>(c.x + r + 2); ++x) {
+                        const double d = std::hypot(x - c.x, y - c.y);
+                        if (x < 0 || y < 0 || x >= img.cols || y >= img.rows || d < r - 0.5 || d > r + 1.5) continue;
+                        if (const auto chroma = logChroma(img, x, y)) edgeChroma[t.type].push_back(*chroma);
+                    }
+            }
             for (int s = 0; s < 2; ++s) {
                 const render::TargetView& v = s == 0 ? t.left : t.right;
                 if (v.visibility != render::TargetVisibility::Full || v.areaPx < 300.0) continue;
@@ -259,6 +405,7 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
                               [&](double a, double b) {
                                   rg[t.type].push_back(a);
                                   bg[t.type].push_back(b);
+
                               });
             }
         }
@@ -350,6 +497,7 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
         std::printf("| %-6s | %.3f-%.3f | %.3f-%.3f | %zu |\n", t.name.c_str(), t.redGreen.min, t.redGreen.max,
                     t.blueGreen.min, t.blueGreen.max, rg[t.name].size());
     }
+    if (o.veil) trainVeil(config, clearChroma, hazyChroma, edgeChroma, rg, bg, background);
     if (o.sizes) {
         // The sizes seen, widened by 10 % each way (the measured silhouettes
         // differ from the exact ones by a few per cent).
@@ -671,7 +819,7 @@ void dumpCrops(const std::string& dir, const render::GroundTruth& truth, const A
 }
 
 void usage() {
-    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR] [--sizes] [--covariance REPEATS [--covariance-centroids] [--covariance-range SCALE]]\n");
+    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose] [--dump DIR] [--sizes] [--no-veil] [--covariance REPEATS [--covariance-centroids] [--covariance-range SCALE]]\n");
 }
 
 }  // namespace
@@ -698,6 +846,7 @@ int main(int argc, char** argv) {
         }
         else if (a == "--dump") o.dumpDir = value();
         else if (a == "--sizes") o.sizes = true;
+        else if (a == "--no-veil") o.veil = false;
         else if (a == "--covariance") o.covarianceRepeats = std::atoi(value().c_str());
         else if (a == "--covariance-centroids") o.covarianceShape = TargetShape::None;
         else if (a == "--covariance-range") o.covarianceRange = std::atof(value().c_str());
