@@ -445,6 +445,35 @@ Proposal propose(const tools::WorkingImage& image, const cv::Mat& targetMask, co
         << fmt(options.falsePositiveWeight) << " x FPR";
     p.why = why.str();
 
+    if (options.veil) {
+        std::ostringstream veilWhy;
+        if (p.type.filter != ColorFilterMethod::RgbRatio || !p.type.brightnessBands.empty()) {
+            veilWhy << "no veil: it needs a single-range rgb_ratio filter";
+        } else {
+            double share = 0.0;
+            Rates at{p.rates};
+            for (double s = 0.02; s <= 0.9 + 1e-9; s += 0.02) {
+                TargetType veiled = p.type;
+                veiled.veil = Veil{*options.veil, s, std::nullopt, std::nullopt};
+                const Rates r = rates(veiled, allTarget, allBackground);
+                if (r.falsePositive > p.rates.falsePositive + options.veilFalsePositives) break;
+                share = s;
+                at = r;
+            }
+            if (share > 0.0) {
+                p.type.veil = Veil{*options.veil, share, std::nullopt, std::nullopt};
+                veilWhy << "veil up to " << fmt(share) << " of G: false positives " << fmt(at.falsePositive * 100)
+                        << " % of the background samples (without it " << fmt(p.rates.falsePositive * 100)
+                        << " %, at most " << fmt(options.veilFalsePositives * 100) << " % more)";
+                p.rates = at;
+            } else {
+                veilWhy << "no veil: a share of 0.02 already passes more than " << fmt(options.veilFalsePositives * 100)
+                        << " % more of the background samples";
+            }
+        }
+        p.veilWhy = veilWhy.str();
+    }
+
     // The minimum area: the features of this filter over the whole image,
     // those on the target sample against the look-alikes elsewhere.
     std::vector<cv::Mat> masks;

@@ -18,6 +18,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include <array>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -46,6 +47,13 @@ struct Options {
     std::size_t maxSamples{200000};
     /// Called with (done, total) while candidates are evaluated.
     std::function<void(int, int)> progress;
+    /// The site's haze backscatter colour (R, G, B as these cameras see it,
+    /// docs/config.md, the veil): when set and the proposal is a single-range
+    /// RGB-ratio filter, it takes the veil up to the largest share (steps of
+    /// 0.02, at most 0.9) that passes at most veilFalsePositives more of the
+    /// background samples.
+    std::optional<std::array<double, 3>> veil;
+    double veilFalsePositives{0.001};
 };
 
 /// One candidate's rates on the samples, as the real filter gives them.
@@ -65,6 +73,7 @@ struct Proposal {
     std::vector<double> targetAreas;     ///< features of the proposed filter over the target samples
     std::vector<double> lookAlikeAreas;  ///< features elsewhere in the image
     std::string areaWhy;
+    std::string veilWhy;  ///< the veil's share and why (empty without --veil)
 };
 
 /// The statistics and the proposal. Throws avatar::InvalidArgument when a

@@ -14,7 +14,10 @@
 #include <boost/program_options.hpp>
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <cmath>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 namespace po = boost::program_options;
@@ -49,6 +52,10 @@ json reportOf(const filterstats::Proposal& p, const tools::WorkingImage& image) 
                    {"area_why", p.areaWhy},
                    {"target_feature_areas", p.targetAreas},
                    {"look_alike_areas", p.lookAlikeAreas}};
+    if (t.veil)
+        report["veil"] = {{"colour_rgb", t.veil->colourRgb}, {"max_share", t.veil->maxShare}, {"why", p.veilWhy}};
+    else if (!p.veilWhy.empty())
+        report["veil"] = {{"why", p.veilWhy}};
     if (t.filter == ColorFilterMethod::Hsv)
         report["hsv"] = {{"hue", rangeJson(t.hsv.hue)},
                          {"saturation", rangeJson(t.hsv.saturation)},
@@ -89,6 +96,7 @@ int main(int argc, char** argv) {
         ("report", po::value<std::string>(), "write the statistics and rates here (JSON)")
         ("plots", po::value<std::string>(), "write the scatter plots into this directory (rg.png, rb.png, bg.png, hue.png)")
         ("fp-weight", po::value<double>()->default_value(10.0), "a false positive costs this many true positives when choosing")
+        ("veil", po::value<std::string>(), "the site's haze backscatter colour 'R G B' (docs/config.md): propose the largest share of it the background allows")
         ("log", po::value<std::string>()->default_value("warn"), "log priority");
     // clang-format on
     return tools::runTool("avatar-filterstats", tools::HelpHint::Short, [&] {
@@ -127,6 +135,16 @@ int main(int argc, char** argv) {
         o.name = vm["name"].as<std::string>();
         o.falsePositiveWeight = vm["fp-weight"].as<double>();
         if (!(o.falsePositiveWeight >= 0.0)) throw InvalidArgument("--fp-weight must be >= 0");
+        if (vm.count("veil")) {
+            const std::string text = vm["veil"].as<std::string>();
+            std::istringstream in(text);
+            std::array<double, 3> v{};
+            std::string rest;
+            if (!(in >> v[0] >> v[1] >> v[2]) || (in >> rest) || !(v[0] >= 0.0 && v[2] >= 0.0 && v[1] > 0.0) ||
+                !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+                throw tools::UsageError("--veil must be three numbers 'R G B', each >= 0 and G > 0, got '" + text + "'");
+            o.veil = v;
+        }
         tools::Progress progress("candidate filters", 0);
         o.progress = progress.reporter();
         const filterstats::Proposal p = filterstats::propose(image, target, background, o);
@@ -157,6 +175,7 @@ int main(int argc, char** argv) {
                   << "on the samples: true positives " << p.rates.truePositive * 100 << " % of "
                   << p.targetSamples << ", false positives " << p.rates.falsePositive * 100 << " % of "
                   << p.backgroundSamples << "\nminimum area " << p.type.area.min << " px: " << p.areaWhy << "\n";
+        if (!p.veilWhy.empty()) std::cout << p.veilWhy << "\n";
         return 0;
     });
 }
