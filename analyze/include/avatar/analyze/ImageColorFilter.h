@@ -46,8 +46,9 @@ namespace avatar {
 /// G > 0 whose (R/G, B/G) lies in the convex hull of its veil's ranges'
 /// region and that region moved towards the veil's colour by its maxShare,
 /// with R+G+B in its brightness range: first the hull's bounding box with
-/// the exact ratio test above, then the hull's edges in double precision
-/// (points within rounding of an edge may fall either way).
+/// the exact ratio test above (its limits widened by 1e-5, so float rounding
+/// never cuts the hull), then the hull's edges in single precision (points
+/// within rounding of an edge may fall either way).
 ///
 /// HSV filter: hue in degrees [0, 360) (a range with min > max wraps through 0),
 /// saturation and value in [0, 1] relative to the image's full scale, as
