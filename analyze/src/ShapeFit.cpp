@@ -278,9 +278,9 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
     std::vector<cv::Point2d> contacts;
     for (const OutlinePoint& p : outline)
         if (p.kind == EdgeKind::Contact) contacts.push_back(p.px);
-    const auto nearContact = [&](const cv::Point2d& px) {
+    const auto nearContact = [&](const cv::Point2d& px, double reachPx = kSeamPx) {
         for (const cv::Point2d& q : contacts)
-            if (cv::norm(q - px) <= kSeamPx) return true;
+            if (cv::norm(q - px) <= reachPx) return true;
         return false;
     };
     for (int k = 0; k < c.bins; ++k) {
@@ -308,6 +308,11 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         // contact points lie this close.
         else if (ownDeep && nearContact(onPx)) ++c.seam;
         else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
+        // Where the seam ends, the mixed pixels of the two colours and the
+        // background blur along it and the filter passes neither side: a
+        // bin short there is at the other target too, hidden only if that
+        // one is the nearer.
+        else if (nearContact(onPx, kSeamEndPx)) ++c.hidden;
         else {
             ++c.missing;
             c.missingBins.push_back(k);

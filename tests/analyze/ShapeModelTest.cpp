@@ -296,6 +296,28 @@ TEST(ShapeModel, AGapOfMixedPixelsAtTheSeamIsTheSeamNotMissing) {
     EXPECT_GE(apart.missing, 2);
 }
 
+// Where the seam ends, the mixed pixels of the two colours and the
+// background may pass neither filter over a pixel or two of depth, a few
+// pixels past the last contact point (an orange sphere just touching a red
+// one behind it, seed 11 of the trust report: 4.5 px from the contact, and
+// the whole sphere had been called hidden). Such a notch is at the other
+// target (judged by depth: hidden only if that one is nearer); the same
+// notch in the open is missing: something in front of it.
+TEST(ShapeModel, ANotchWhereTheSeamEndsIsAtTheNeighbourNotMissing) {
+    // A dent of 2.5 px (deeper than the seam's own test) over points k in
+    // [from, to]; contact over k <= 2.
+    const auto verdict = [](int from, int to) {
+        return circleVerdict({700.0, 500.0}, 40.0, [&](int k) { return k >= from && k <= to ? -2.5 : 0.0; },
+                             [](int k) { return k <= 2; });
+    };
+    const detail::RoundCompleteness atSeamsEnd = verdict(4, 5);  // 3.4-5.1 px past the last contact point
+    EXPECT_EQ(atSeamsEnd.missing, 0);
+    EXPECT_GE(atSeamsEnd.hidden, 1);
+    const detail::RoundCompleteness apart = verdict(18, 19);  // 27 px past it
+    EXPECT_GE(apart.missing, 2);
+    EXPECT_EQ(apart.hidden, 0);
+}
+
 // The rectified rows an ellipse spans (the epipolar tangency of a round
 // target whose end is a contact): the rows of the two lines of the
 // rectified pencil that touch it, against 20,000 points along it.
