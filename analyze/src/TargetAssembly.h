@@ -65,6 +65,12 @@ struct CompletenessLimits {
     /// fragments of one object only when one's colour is this near the
     /// other's filter (otherwise they are two targets).
     double typeMarginLog{0.1};
+    /// A colour that another type with a haze veil explains as its own seen
+    /// through more haze than its filter passes (its clear colour moved
+    /// towards the veil by a share between this and kHazeShareMax) is that
+    /// type's as likely as its own: undecided. Below this share, pixels of
+    /// other colours under water lie there too.
+    double minHazeShare{0.1};
     /// A round silhouette with a missing bin (within maxUnsupportedBins) is
     /// hidden there when, 1.5-3.5 px outside its ellipse, the colour differs
     /// from the free background's all around the outline by at least
@@ -202,7 +208,8 @@ private:
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
     std::vector<bool> typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const;
-    /// Whether a colour of type @p own is within the margin of another type's filter.
+    /// Whether a colour of type @p own is within the margin of another type's
+    /// filter, or is another type's seen through thicker haze (minHazeShare).
     bool undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
     Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
                        bool conflict) const;
@@ -224,6 +231,10 @@ private:
     /// typesNear()'s colour tests, for samples of the configured camera.
     int nearDepth_{-1}, nearBitDepth_{0};
     std::vector<ColorTest> nearTests_;
+    /// For each type with a veil, its clear colour moved towards the veil by
+    /// up to kHazeShareMax and by up to minHazeShare (nothing else), for
+    /// the configured camera's samples; empty for a type without one.
+    std::vector<std::vector<ColorTest>> hazeTests_;
 };
 
 }  // namespace avatar::detail

@@ -18,7 +18,7 @@ namespace {
 constexpr double kRadiusMm = 30.0;
 const cv::Point3d kCentreMm(40.0, -30.0, 1000.0);
 
-render::Scene hazyGreenSphere() {
+render::Scene hazyGreenSphere(double thicker = 1.0) {
     render::Scene s = render::readSceneFile(std::string(AVATAR_DATA_DIR) + "/scenes/lab.xml");
     s.targets.clear();
     s.armMarkers.clear();
@@ -36,8 +36,8 @@ render::Scene hazyGreenSphere() {
     // The scene sets' haze (acquire/simulation/SceneSet.cpp): backscatter
     // 0.7 : 1 : 1, here strong enough to take the sphere's B/G from 0.25 to
     // about 0.35.
-    s.lighting.backscatter = {0.105, 0.15, 0.15};
-    s.lighting.turbidityPerM = 0.4;
+    s.lighting.backscatter = {0.105 * thicker, 0.15 * thicker, 0.15 * thicker};
+    s.lighting.turbidityPerM = 0.4 * thicker;
     return s;
 }
 
@@ -83,6 +83,54 @@ TEST(VeilScene, WithTheVeilItIsWholeWhereItIsAndNothingElseIsReported) {
             << v.positionVisionMm->x << " " << v.positionVisionMm->y << " " << v.positionVisionMm->z;
     }
     EXPECT_EQ(stereo, 1);
+}
+
+// A colour that one type's veil explains as that type's in thicker haze
+// than its filter passes, and that another type's ranges take, cannot be
+// told by colour (a yellow duck in haze where orange's ranges reach, taken
+// for a whole orange sphere in the trust report): the target is ambiguous,
+// not whole. Here a "teal" type's ranges take the green sphere in haze
+// twice as thick as above (R/G ~0.33, B/G ~0.45: a share of ~0.25 of the
+// veil) while green's own veil stops at a share of 0.05, and its filter's
+// margin (0.1 in log) at B/G 0.32.
+VisionTargets analyseAsTeal(bool greenHasVeil) {
+    AvatarConfig config = greenConfig(false);
+    TargetType teal = config.targets.targets[0];
+    teal.name = "teal";
+    teal.redGreen = {0.25, 0.5};
+    teal.blueGreen = {0.36, 0.7};
+    TargetType& green = config.targets.targets[0];
+    if (greenHasVeil) green.veil = Veil{{0.7, 1.0, 1.0}, 0.05, std::nullopt, std::nullopt};
+    config.targets.targets.push_back(teal);
+    validateConfig(config);
+    render::RenderOptions options;
+    options.seed = 3;
+    const render::RenderResult r = render::render(hazyGreenSphere(2.0), config.stereo, options);
+    AnalyzeStereoImagePair analysis(config);
+    return analysis.analyze(r.pair, 1);
+}
+
+TEST(VeilScene, AnotherTypesColourInThickerHazeThanItsFilterPassesIsAmbiguous) {
+    for (const bool greenHasVeil : {false, true}) {
+        const VisionTargets result = analyseAsTeal(greenHasVeil);
+        int stereo = 0;
+        for (const VisionTarget& v : result.targets) {
+            if (!(v.flags & kTargetStereo)) continue;
+            ++stereo;
+            EXPECT_EQ(v.type, "teal");
+            ASSERT_TRUE(v.positionVisionMm);
+            EXPECT_LT(cv::norm(*v.positionVisionMm - kCentreMm), 5.0);  // the thick haze's edges: 3.3 mm
+            if (greenHasVeil) {
+                EXPECT_TRUE(v.flags & kTargetAmbiguous) << v.flags;
+                EXPECT_FALSE(v.flags & kTargetWhole) << v.flags;
+            } else {
+                // Nothing says it is another type's: teal as configured.
+                EXPECT_FALSE(v.flags & kTargetAmbiguous) << v.flags;
+                EXPECT_TRUE(v.flags & kTargetWhole) << v.flags;
+            }
+        }
+        EXPECT_EQ(stereo, 1) << (greenHasVeil ? "green with a veil" : "green without");
+    }
 }
 
 }  // namespace
