@@ -270,6 +270,31 @@ double fullScale(int depth, int bitDepth) { return depth == CV_16U ? (1 << std::
 /// every type's).
 constexpr double kHazeShareMax = 0.9;
 
+/// For each of @p types with a veil, the colour tests of the colour its veil
+/// acts on moved towards the veil by up to kHazeShareMax and by up to
+/// @p minShare (nothing else: no ranges of its own, no brightness); empty
+/// for a type without one.
+std::vector<std::vector<ColorTest>> hazeTests(const std::vector<TargetType>& types, double minShare, int depth,
+                                              int bitDepth) {
+    std::vector<std::vector<ColorTest>> out;
+    for (const TargetType& type : types) {
+        std::vector<TargetType> moved;
+        if (type.veil && minShare < kHazeShareMax) {
+            TargetType t = type;
+            t.redGreen = type.veil->redGreen.value_or(type.redGreen);
+            t.blueGreen = type.veil->blueGreen.value_or(type.blueGreen);
+            t.redBlue = Range{0.0, 1e9};
+            t.brightness.reset();
+            for (const double share : {kHazeShareMax, minShare}) {
+                t.veil->maxShare = share;
+                moved.push_back(t);
+            }
+        }
+        out.push_back(nearTests(moved, depth, bitDepth));
+    }
+    return out;
+}
+
 }  // namespace
 
 TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits limits)
@@ -293,22 +318,7 @@ TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits 
     nearBitDepth_ = config.camera.bitDepth;
     nearDepth_ = nearBitDepth_ > 8 ? CV_16U : CV_8U;
     nearTests_ = nearTests(config.targets.targets, nearDepth_, nearBitDepth_);
-    for (const TargetType& type : config.targets.targets) {
-        std::vector<TargetType> clear;
-        if (type.veil && limits_.minHazeShare < kHazeShareMax) {
-            // Only the colour the veil acts on, moved by it.
-            TargetType moved = type;
-            moved.redGreen = type.veil->redGreen.value_or(type.redGreen);
-            moved.blueGreen = type.veil->blueGreen.value_or(type.blueGreen);
-            moved.redBlue = Range{0.0, 1e9};
-            moved.brightness.reset();
-            for (const double share : {kHazeShareMax, limits_.minHazeShare}) {
-                moved.veil->maxShare = share;
-                clear.push_back(moved);
-            }
-        }
-        hazeTests_.push_back(nearTests(clear, nearDepth_, nearBitDepth_));
-    }
+    hazeTests_ = hazeTests(config.targets.targets, limits_.minHazeShare, nearDepth_, nearBitDepth_);
 }
 
 std::vector<bool> typesNear(const std::vector<TargetType>& types, const cv::Vec3f& bgr, int depth, int bitDepth,
@@ -330,11 +340,16 @@ bool TargetAssembler::undecided(const cv::Vec3f& bgr, std::size_t own, int depth
     // Another type's colour in thicker haze than its filter takes (a yellow
     // duck in haze lies where orange's ranges reach, seed 34 of the trust
     // report: taken for a whole orange sphere).
-    if (depth != nearDepth_ || bitDepth != nearBitDepth_) return false;
-    const double full = fullScale(depth, bitDepth);
-    for (std::size_t t = 0; t < hazeTests_.size(); ++t) {
-        if (t == own || hazeTests_[t].empty()) continue;
-        const std::vector<bool> passed = near(hazeTests_[t], bgr, full, 0.0);
+    const bool configured = depth == nearDepth_ && bitDepth == nearBitDepth_;
+    const std::vector<std::vector<ColorTest>> other =
+        configured ? std::vector<std::vector<ColorTest>>{}
+                   : hazeTests(config_.targets.targets, limits_.minHazeShare, depth,
+                               depth == CV_16U ? bitDepth : 8);
+    const std::vector<std::vector<ColorTest>>& tests = configured ? hazeTests_ : other;
+    const double full = fullScale(depth, depth == CV_16U ? bitDepth : 8);
+    for (std::size_t t = 0; t < tests.size(); ++t) {
+        if (t == own || tests[t].empty()) continue;
+        const std::vector<bool> passed = near(tests[t], bgr, full, 0.0);
         if (passed[0] && !passed[1]) return true;
     }
     return false;
