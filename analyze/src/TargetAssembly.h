@@ -183,6 +183,16 @@ ImageScale imageScale(const CameraIntrinsics& camera, const cv::Point3d& pointMm
 double hiddenAtContactPx(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
                          const cv::Point3d& camera, double focalPx);
 
+/// Of two spheres seen from @p camera, the share of the first's cone that
+/// the second hides: its rays along which the second's surface comes first,
+/// counted on a grid of 64 x 64 across the cone (in the plane at unit
+/// distance along its axis; the image's share to within a few per cent off
+/// the axis). For any two spheres, also ones that pass into each other,
+/// which hide each other in turn (each in front where its own part of their
+/// common lens lies nearer); 0 when the camera is inside either.
+double hiddenShareBySphere(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
+                           const cv::Point3d& camera);
+
 class TargetAssembler {
 public:
     explicit TargetAssembler(const AvatarConfig& config, CompletenessLimits limits = {});

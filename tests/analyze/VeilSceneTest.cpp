@@ -133,5 +133,48 @@ TEST(VeilScene, AnotherTypesColourInThickerHazeThanItsFilterPassesIsAmbiguous) {
     }
 }
 
+// The same with a second hazy green sphere touching the first side by
+// side: both in teal's box, one feature in each view, which splits into
+// two spheres. The split's parts are each tested as a lone target's colour
+// is, so both are ambiguous, never whole; before, the split made two whole
+// teal spheres whatever their colour (a hazy yellow duck beside an orange
+// sphere, both in orange's box, became two whole orange spheres;
+// trust_report seed 51).
+TEST(VeilScene, TheSpheresATouchingPairSplitsIntoHaveTheirColoursJudged) {
+    AvatarConfig config = greenConfig(false);
+    TargetType teal = config.targets.targets[0];
+    teal.name = "teal";
+    teal.redGreen = {0.2, 0.5};
+    teal.blueGreen = {0.32, 0.7};
+    config.targets.targets[0].veil = Veil{{0.7, 1.0, 1.0}, 0.05, std::nullopt, std::nullopt};
+    config.targets.targets.push_back(teal);
+    validateConfig(config);
+    render::Scene scene = hazyGreenSphere();
+    render::TargetSpec other = scene.targets[0];
+    other.name = "ball2";
+    other.radiusMm = 25.0;
+    other.centreMm = {kCentreMm.x + kRadiusMm + other.radiusMm + 0.01, kCentreMm.y, kCentreMm.z};
+    scene.targets.push_back(other);
+    render::RenderOptions options;
+    options.seed = 3;
+    const render::RenderResult r = render::render(scene, config.stereo, options);
+    AnalyzeStereoImagePair analysis(config);
+    const VisionTargets result = analysis.analyze(r.pair, 1);
+    const cv::Point3d otherCentre(other.centreMm[0], other.centreMm[1], other.centreMm[2]);
+    int first = 0, second = 0;
+    for (const VisionTarget& v : result.targets) {
+        if (!(v.flags & kTargetStereo)) continue;
+        EXPECT_EQ(v.type, "teal");
+        EXPECT_EQ(v.model, ShapeModel::Sphere) << "each placed by its own cone";
+        ASSERT_TRUE(v.positionVisionMm);
+        first += cv::norm(*v.positionVisionMm - kCentreMm) < 5.0;
+        second += cv::norm(*v.positionVisionMm - otherCentre) < 5.0;
+        EXPECT_TRUE(v.flags & kTargetAmbiguous) << v.flags;
+        EXPECT_FALSE(v.flags & kTargetWhole) << v.flags;
+    }
+    EXPECT_EQ(first, 1) << "the pair must split into its two spheres";
+    EXPECT_EQ(second, 1);
+}
+
 }  // namespace
 }  // namespace avatar
