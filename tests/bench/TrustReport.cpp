@@ -144,7 +144,6 @@ render::RenderResult renderScene(const render::Scene& scene, const StereoSystemC
     return render::render(scene, stereo, ro);
 }
 
-/// A configuration with one type per colour, filters still open.
 /// The scene set's centres lie 500-2500 mm from the left camera, and a
 /// target put in front of another as near as 300 mm (SceneSet.cpp: 0.6 of
 /// the nearest range).
@@ -172,6 +171,8 @@ void coverSceneRange(AvatarConfig& c, const render::SensorFormat& sensor) {
     c.match.boxDyMin = std::floor(dy[0]) - 10.0, c.match.boxDyMax = std::ceil(dy[1]) + 10.0;
 }
 
+/// A configuration with one type per colour, filters still open, matching
+/// over the scenes' workspace.
 AvatarConfig baseConfig(const render::SensorFormat& sensor) {
     AvatarConfig c = readConfigFile(dataDir() / "config/scorpion.xml");
     coverSceneRange(c, sensor);
