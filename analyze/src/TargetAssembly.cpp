@@ -143,6 +143,14 @@ bool spheresTouch(const cv::Point3d& a, double radiusA, const cv::Point3d& b, do
     return cv::norm(a - b) - sum <= std::max(limits.splitTouchMm, limits.splitTouchShare * sum);
 }
 
+/// Whether two spheres are passed into each other by more than the touch's
+/// tolerance (spheresTouch()): then they hide each other in turn.
+bool spheresInto(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
+                 const CompletenessLimits& limits) {
+    const double sum = radiusA + radiusB;
+    return cv::norm(a - b) - sum < -std::max(limits.splitTouchMm, limits.splitTouchShare * sum);
+}
+
 /// For two spheres apart in space seen from @p camera: whether the first is
 /// hidden in part by the second, when their cones overlap by more than
 /// @p minOverlapPx at @p focalPx (nullopt when they do not): along a ray
@@ -718,9 +726,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             // the other where its part of their lens lies nearer, the nearer
             // centre too (a magenta sphere 8.7 mm into a red one, 3.8 % hidden
             // by it, had been whole; trust_report seed 46).
-            const double sum = a.sphereRadiusMm + b.sphereRadiusMm;
-            const double gap = cv::norm(*ta.positionVisionMm - *tb.positionVisionMm) - sum;
-            const bool into = gap < -std::max(limits_.splitTouchMm, limits_.splitTouchShare * sum);
+            const double gap =
+                cv::norm(*ta.positionVisionMm - *tb.positionVisionMm) - a.sphereRadiusMm - b.sphereRadiusMm;
+            const bool into =
+                spheresInto(*ta.positionVisionMm, a.sphereRadiusMm, *tb.positionVisionMm, b.sphereRadiusMm, limits_);
             for (int side = 0; side < 2; ++side) {
                 const double focalPx = side == 0 ? config_.stereo.left.fc[0] : config_.stereo.right.fc[0];
                 const cv::Point3d& camera = cameras[static_cast<std::size_t>(side)];
@@ -1402,8 +1411,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             // cone the other hides (hiddenShareBySphere(), of its fitted
             // circle's area); apart, by their cones (hiddenBehindSphere(),
             // overlapping by more than maxSplitOverlapPx).
-            const double sum = radii[i] + radii[1 - i];
-            const bool into = cv::norm(p - q) - sum < -std::max(limits_.splitTouchMm, limits_.splitTouchShare * sum);
+            const bool into = spheresInto(p, radii[i], q, radii[1 - i], limits_);
             const double circlePx = M_PI * 0.25 * own.fit.ideal.size.width * own.fit.ideal.size.height;
             const bool hidden =
                 into ? hiddenShareBySphere(p, radii[i], q, radii[1 - i], cv::Point3d(0, 0, 0)) * circlePx >=
