@@ -315,6 +315,7 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         else if (nearContact(onPx, kSeamEndPx)) ++c.hidden;
         else {
             ++c.missing;
+            c.shallow += ownDeep;
             c.missingBins.push_back(k);
         }
     }

@@ -73,6 +73,10 @@ struct RoundCompleteness {
     /// the depths can tell.
     int seam{0};
     int missing{0};        ///< unsupported bins with background: hidden by something else, or not an ellipse
+    /// Missing bins with the silhouette's own pixels 1.75 px inside the
+    /// ellipse: within a pixel or two of it, as the outline of a circle fitted
+    /// on a short arc may be.
+    int shallow{0};
     std::vector<int> missingBins;  ///< which bins are missing (bin k spans angle parameters -pi + [k, k + 1) 2 pi / bins)
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };

@@ -298,6 +298,25 @@ TEST(ShapeModel, AGapOfMixedPixelsAtTheSeamIsTheSeamNotMissing) {
     EXPECT_GE(apart.missing, 2);
 }
 
+// A bin is missing where the silhouette stops short of the circle; it is
+// shallow where the silhouette's own pixels still lie 1.75 px inside it, as
+// they do along a circle fitted a pixel or two too large on a short arc (a
+// duck's head, which TargetAssembly checks on its deep misses only). A bite
+// 2.5 px deep is missing and not shallow.
+TEST(ShapeModel, AMissingBinIsShallowWhereTheSilhouetteStopsWithinTwoPixels) {
+    const auto verdict = [](double depthPx) {
+        return circleVerdict({700.0, 500.0}, 40.0, [&](int k) { return k >= 18 && k <= 21 ? -depthPx : 0.0; },
+                             [](int) { return false; });
+    };
+    const detail::RoundCompleteness shallow = verdict(1.2);
+    EXPECT_GE(shallow.missing, 2);
+    EXPECT_EQ(shallow.shallow, shallow.missing);
+    const detail::RoundCompleteness deep = verdict(2.5);
+    EXPECT_GE(deep.missing, 2);
+    EXPECT_EQ(deep.shallow, 0);
+    EXPECT_EQ(verdict(0.0).missing, 0);
+}
+
 // Where the seam ends, the mixed pixels of the two colours and the
 // background may pass neither filter over a pixel or two of depth, a few
 // pixels past the last contact point (an orange sphere just touching a red
