@@ -322,6 +322,44 @@ std::vector<ColorTest> nearTests(const std::vector<TargetType>& types, int depth
     return tests;
 }
 
+/// Whether an object seen in view @p side only (its box @p box, its
+/// members' types @p memberTypes) lies behind a target whose disparity
+/// (x_left - x_right) is at least @p minDisparityPx: in front of it, the
+/// object would show in the other view at a larger disparity, within the
+/// match box (dx up to its maximum, dy within its range), and none of its
+/// types' filters passes a pixel there. False where that stretch leaves the
+/// other image or a type's search window, or where the other view was
+/// searched in regions only (tracking, coarse-to-fine): it may lie there
+/// unseen.
+bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const std::vector<TargetType>& types,
+                     const cv::Rect& box, const std::vector<std::size_t>& memberTypes, Side side,
+                     double minDisparityPx) {
+    const Side other = side == Side::Left ? Side::Right : Side::Left;
+    const ImageWork& w = frame.at(other);
+    if (!frame.regions[static_cast<std::size_t>(other)].empty() || w.image.empty()) return false;
+    const double dLo = std::max(minDisparityPx, match.boxDxMin), dHi = match.boxDxMax;
+    if (!(dHi >= dLo)) return true;  // no disparity of the box is larger: nothing there can be nearer
+    // dx = x_left - x_right, dy = y_left - y_right.
+    double x0, x1, y0, y1;
+    if (side == Side::Right) {
+        x0 = box.x + dLo, x1 = box.x + box.width - 1 + dHi;
+        y0 = box.y + match.boxDyMin, y1 = box.y + box.height - 1 + match.boxDyMax;
+    } else {
+        x0 = box.x - dHi, x1 = box.x + box.width - 1 - dLo;
+        y0 = box.y - match.boxDyMax, y1 = box.y + box.height - 1 - match.boxDyMin;
+    }
+    const cv::Rect band(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
+                        static_cast<int>(std::ceil(x1)) - static_cast<int>(std::floor(x0)) + 1,
+                        static_cast<int>(std::ceil(y1)) - static_cast<int>(std::floor(y0)) + 1);
+    for (const std::size_t t : memberTypes) {
+        if (t >= w.masks.size() || w.masks[t].empty()) return false;
+        const cv::Rect window = searchWindow(types[t], w.image.size());
+        if ((band & window) != band) return false;
+        if (cv::countNonZero(w.masks[t](band)) > 0) return false;
+    }
+    return true;
+}
+
 std::vector<bool> near(const std::vector<ColorTest>& tests, const cv::Vec3f& bgr, double full, double marginLog) {
     std::vector<bool> out(tests.size(), false);
     if (!(bgr[1] > 0.f)) return out;
@@ -633,6 +671,22 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                                              transformPoint(inverse(rightTLeft(config_.stereo)), {0, 0, 0})};
     std::vector<std::uint32_t> viewFlags(out.size(), 0);
     for (const Placed& p : placed) viewFlags[p.target] = out[p.target].flags;
+    // The objects seen in one view only, per view: their boxes and types.
+    struct Lone {
+        cv::Rect box;
+        std::vector<std::size_t> types;
+    };
+    std::array<std::vector<Lone>, 2> lone;
+    for (int side = 0; side < 2; ++side) {
+        const std::vector<Object>& objs = side == 0 ? left : right;
+        const std::vector<int>& use = side == 0 ? leftUse : rightUse;
+        for (std::size_t o = 0; o < objs.size(); ++o) {
+            if (use[o] != 0) continue;
+            Lone l{objs[o].feature.box, {}};
+            for (const Member& m : objs[o].members) l.types.push_back(m.type);
+            lone[static_cast<std::size_t>(side)].push_back(std::move(l));
+        }
+    }
     for (const Placed& a : placed) {
         VisionTarget& ta = out[a.target];
         for (int side = 0; side < 2; ++side) {
@@ -700,7 +754,34 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                             << ta.positionVisionMm->z << ", margin " << margin << " mm)";
                 }
             }
-            if (!any || !nearer) {
+            // Touching no stereo target, only objects this view alone shows:
+            // each is behind this one if the other view, where it would
+            // show at a larger disparity were it nearer, has none of its
+            // colour (a magenta disc 0.65 m behind a red sphere, which hid it
+            // in the right view, trust_report seed 50). Half this one's radius
+            // of doubt in its own disparity, as for a partial neighbour's depth
+            // above.
+            bool behindLone = false;
+            if (!any && ta.centroidLeftPx && ta.centroidRightPx) {
+                const double radiusPx = std::sqrt(std::max(ta.areaLeftPx, 1.0) / M_PI);
+                const double disparity = ta.centroidLeftPx->x - ta.centroidRightPx->x - 0.5 * radiusPx;
+                int touching = 0;
+                behindLone = true;
+                for (const Lone& l : lone[static_cast<std::size_t>(side)]) {
+                    if ((grown(a.box[side], 3) & l.box).empty()) continue;
+                    ++touching;
+                    behindLone = behindLone && behindByAbsence(frame, config_.match, config_.targets.targets, l.box,
+                                                               l.types, side == 0 ? Side::Left : Side::Right,
+                                                               disparity);
+                }
+                behindLone = behindLone && touching > 0;
+                if (behindLone && logger().isDebugEnabled())
+                    logger().debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
+                                           << ": touches only objects the "
+                                           << (side == 0 ? "left" : "right")
+                                           << " view alone shows, none of them nearer: not occluded there";
+            }
+            if (!behindLone && (!any || !nearer)) {
                 ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
                 if (log4cpp::Category& log = logger(); log.isDebugEnabled())
                     log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())

@@ -1418,6 +1418,45 @@ TEST(Completeness, TheTypesSizeTellsTwoTouchingDucksFromOne) {
     EXPECT_TRUE(d && (d->flags & kTargetAmbiguous) && !(d->flags & kTargetWhole)) << flagsOf(d);
 }
 
+// A duck (a composite: any contact is judged by depth) in front of a gold
+// disc that it hides whole in the left view and in part in the right, where
+// the disc touches its body: the disc is seen in the right view alone, so no
+// depth judges the contact. Were the disc nearer than the duck, the left
+// view would show it at a larger disparity than the duck's, where nothing
+// gold is: it is behind, and the duck is whole (it was occluded-right; a
+// red sphere in front of a magenta disc so, trust_report seed 50). With a
+// gold disc in that stretch of the left view nothing can be told, and the
+// duck stays occluded there.
+TEST(Completeness, ATargetTouchingOnlyAnObjectBehindItThatTheOtherViewLacksIsWhole) {
+    render::Scene scene = emptyLab();
+    auto duck = target("duck", render::Shape::Duck, {0, 0, 800}, 40);
+    duck.om = {0.0, M_PI, 0.0};  // facing left: its head and beak away from the disc
+    // 13 px right of the duck's centre in the left image, 1200 mm away.
+    scene.targets = {duck, target("disc", render::Shape::Disc, {1200.0 * 13.0 / 1049.0, 0, 1200}, 15, kGold,
+                                  "arm_marker")};
+    const AvatarConfig cfg = config(TargetShape::Composite);
+    const Outcome o = run(scene, cfg);
+    const render::TargetTruth& d = o.truth.target("disc");
+    ASSERT_TRUE(d.left.visibility == render::TargetVisibility::None && d.right.areaPx > 150.0 && d.right.occluded)
+        << "the duck must hide the disc whole in the left view and in part in the right";
+    ASSERT_FALSE(o.truth.target("duck").left.occluded || o.truth.target("duck").right.occluded);
+    const auto k = o.of("duck");
+    ASSERT_TRUE(k);
+    EXPECT_TRUE(k->flags & kTargetWhole) << flagsOf(k);
+    int rightOnly = 0;
+    for (const VisionTarget& v : o.result.targets) rightOnly += (v.flags & kTargetRightOnly) && v.type == "arm_marker";
+    EXPECT_EQ(rightOnly, 1) << "the disc is seen in the right view alone";
+
+    // Another gold disc where the first would show in the left view were it
+    // nearer than the duck (175 px right of the image's centre there).
+    scene.targets.push_back(target("other", render::Shape::Disc, {200, 0, 1200}, 15, kGold, "arm_marker"));
+    const Outcome with = run(scene, cfg);
+    ASSERT_FALSE(with.truth.target("other").left.occluded);
+    const auto k2 = with.of("duck");
+    ASSERT_TRUE(k2);
+    EXPECT_TRUE((k2->flags & kTargetOccludedRight) && !(k2->flags & kTargetWhole)) << flagsOf(k2);
+}
+
 // A duck (a composite type: no model checks its outline) whose head is
 // topped by a grey sphere in front of it in the left image only: little of
 // its area is lost, but its silhouette there ends lower than in the right
