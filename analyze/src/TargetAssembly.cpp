@@ -326,11 +326,11 @@ std::vector<ColorTest> nearTests(const std::vector<TargetType>& types, int depth
 /// members' types @p memberTypes) lies behind a target whose disparity
 /// (x_left - x_right) is at least @p minDisparityPx: in front of it, the
 /// object would show in the other view at a larger disparity, within the
-/// match box (dx up to its maximum, dy within its range), and none of its
-/// types' filters passes a pixel there. False where that stretch leaves the
-/// other image or a type's search window, or where the other view was
-/// searched in regions only (tracking, coarse-to-fine): it may lie there
-/// unseen.
+/// match box (dx up to its maximum, dy within its range: the workspace),
+/// and none of its types' filters passes a pixel there. False where that
+/// stretch is empty or leaves the other image or a type's search window,
+/// or where the other view was searched in regions only (tracking,
+/// coarse-to-fine): it may lie there unseen.
 bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const std::vector<TargetType>& types,
                      const cv::Rect& box, const std::vector<std::size_t>& memberTypes, Side side,
                      double minDisparityPx) {
@@ -338,7 +338,7 @@ bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const
     const ImageWork& w = frame.at(other);
     if (!frame.regions[static_cast<std::size_t>(other)].empty() || w.image.empty()) return false;
     const double dLo = std::max(minDisparityPx, match.boxDxMin), dHi = match.boxDxMax;
-    if (!(dHi >= dLo)) return true;  // no disparity of the box is larger: nothing there can be nearer
+    if (!(dHi >= dLo)) return false;  // nearer than the box's workspace: nothing to look at
     // dx = x_left - x_right, dy = y_left - y_right.
     double x0, x1, y0, y1;
     if (side == Side::Right) {
