@@ -67,6 +67,9 @@ struct Silhouette {
     /// Its holes: background inside the outline that no filter passed, apart
     /// from the seams next to other targets (something in front of it, such
     /// as a speck of silt; or noise, whose holes have the target's colour).
+    /// A pocket is one too: background that reaches the outside only through
+    /// a mouth of at most two pixels (its pixels two or more from the
+    /// feature's), where the filter cut open a speck's mixed rim.
     struct Hole {
         int areaPx{0};
         /// How far its mean colour is from the target's: the larger change

@@ -121,6 +121,21 @@ Outcome run(const render::Scene& scene, const AvatarConfig& cfg, std::uint64_t s
 
 std::string flagsOf(const std::optional<VisionTarget>& v) { return v ? targetFlagsText(v->flags) : "not found"; }
 
+/// @p mask as the one mask of @p w and its one feature (all of it), which is returned.
+Feature soleFeature(ImageWork& w, const cv::Mat& mask) {
+    w.masks = {mask};
+    Feature feature;
+    feature.area = cv::countNonZero(mask);
+    feature.box = cv::boundingRect(mask);
+    for (int x = feature.box.x; x < feature.box.br().x; ++x)
+        if (mask.at<std::uint8_t>(feature.box.y, x) != 0) {
+            feature.boundary[kTopLeft] = {x, feature.box.y};
+            break;
+        }
+    w.features = {{feature}};
+    return feature;
+}
+
 // The silhouette's fills against cv::floodFill (no tolerance, no mask) as a
 // brute-force reference: random blobs of four labels, views into a larger
 // image, both connectivities, seeds anywhere (on the value filled or not).
@@ -969,16 +984,7 @@ TEST(Silhouette, TheOutlineIsTheEdgeWhereTheMaskStopsShortOrIsNotched) {
             const bool notch = (x == 79 || x == 80) && y < centre.y - radius + 2.0;
             if (cv::norm(d) < radius - shortBy && !notch) mask.at<std::uint8_t>(y, x) = 255;
         }
-    w.masks = {mask};
-    Feature feature;
-    feature.area = cv::countNonZero(mask);
-    feature.box = cv::boundingRect(mask);
-    for (int x = feature.box.x; x < feature.box.br().x; ++x)
-        if (mask.at<std::uint8_t>(feature.box.y, x) != 0) {
-            feature.boundary[kTopLeft] = {x, feature.box.y};
-            break;
-        }
-    w.features = {{feature}};
+    const Feature feature = soleFeature(w, mask);
     const detail::Silhouette s = detail::measureSilhouette(w, 0, feature, {0, 0, 160, 160}, 1.0);
     ASSERT_TRUE(s.subPixel);
     int onShortSide = 0, atNotch = 0, walls = 0;
@@ -1004,6 +1010,46 @@ TEST(Silhouette, TheOutlineIsTheEdgeWhereTheMaskStopsShortOrIsNotched) {
     EXPECT_GE(onShortSide, 12);
     EXPECT_GE(atNotch, 4);
     EXPECT_EQ(walls, 4);  // two rows on either side
+}
+
+// A speck of silt just inside a target's outline whose mixed rim the filter
+// cut open: its pixels reach the background only through a mouth one pixel
+// wide, so the outline runs round it and no bin of it is missing. It is a
+// hole all the same (a pocket), of the speck's colour; through a mouth three
+// pixels wide it is a notch, which the outline shows, and no hole. A circle of
+// 30 px, orange on the seabed, a white speck of 5 px 22 px from its centre.
+TEST(Silhouette, ASpeckOpenedToTheBackgroundByAOnePixelMouthIsAHole) {
+    const cv::Point2d centre(80.3, 79.6), speck = centre + cv::Point2d(22.0, 0.0);
+    const double radius = 30.0, speckRadius = 5.0;
+    const cv::Vec3d target(2000, 18000, 40000), seabed(9000, 10000, 9000), white(30000, 30000, 30000);  // B, G, R
+    const auto judge = [&](int mouthRows) {
+        ImageWork w;
+        w.image.create(160, 160, CV_16UC3);
+        cv::Mat mask(w.image.size(), CV_8UC1, cv::Scalar(0));
+        for (int y = 0; y < mask.rows; ++y)
+            for (int x = 0; x < mask.cols; ++x) {
+                const cv::Point2d p(x, y);
+                const bool inTarget = cv::norm(p - centre) < radius, inSpeck = cv::norm(p - speck) < speckRadius;
+                const cv::Vec3d c = inSpeck ? white : inTarget ? target : seabed;
+                w.image.at<cv::Vec3w>(y, x) = cv::Vec3w(cv::saturate_cast<std::uint16_t>(c[0]),
+                                                        cv::saturate_cast<std::uint16_t>(c[1]),
+                                                        cv::saturate_cast<std::uint16_t>(c[2]));
+                // The filter leaves out the speck and its mixed rim, and the
+                // mouth from the speck to the background.
+                const bool mouth = std::abs(y - static_cast<int>(std::lround(speck.y))) <= (mouthRows - 1) / 2 &&
+                                   x > speck.x;
+                if (inTarget && cv::norm(p - speck) >= speckRadius + 1.0 && !mouth) mask.at<std::uint8_t>(y, x) = 255;
+            }
+        const Feature feature = soleFeature(w, mask);
+        return detail::measureSilhouette(w, 0, feature, {0, 0, 160, 160}, 1.0);
+    };
+    const detail::Silhouette pocket = judge(1);
+    ASSERT_EQ(pocket.holes.size(), 1u) << "the speck behind a mouth of one pixel";
+    EXPECT_GE(pocket.holes[0].areaPx, 40);
+    EXPECT_LE(pocket.holes[0].areaPx, static_cast<int>(M_PI * speckRadius * speckRadius));
+    EXPECT_GT(pocket.holes[0].colourLog, 1.0) << "white against orange";
+    const detail::Silhouette notch = judge(3);
+    EXPECT_TRUE(notch.holes.empty()) << "a mouth of three pixels: a notch";
 }
 
 // What lies just beyond a bin of the outline that no point supports tells
