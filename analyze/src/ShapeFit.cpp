@@ -345,12 +345,17 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
 
 bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
                       const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
-                      double factor, double minLog) {
+                      double factor, double minLog, const std::optional<cv::Vec3d>& target, double insideLog) {
     if (!fit.ok || c.missingBins.empty() || c.bins <= 0) return false;
     const auto angleOf = [&](int k) { return -CV_PI + (k + 0.5) * 2.0 * CV_PI / c.bins; };
     const double f = camera.fc[0];
     const auto toPixel = [&](const cv::Point2d& idealPx) {
         return normalizedToPixel(camera, distortNormalized(camera, idealPx * (1.0 / f)));
+    };
+    // Brightness: the mean of the channels' logs.
+    const auto meanLog = [](const cv::Vec3d& v) {
+        return (std::log1p(std::max(v[0], 0.0)) + std::log1p(std::max(v[1], 0.0)) + std::log1p(std::max(v[2], 0.0))) /
+               3.0;
     };
     // The mean log colour of the free background 1.5, 2.5 and 3.5 px
     // outside the ellipse at angle t; none where any of them is not free.
@@ -365,7 +370,7 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
                          lr = std::log1p(std::max(v[2], 0.0));
             // Chromaticity (B/G, R/G) and brightness: a shadow on the
             // background changes only the brightness, and only downwards.
-            sum += cv::Vec3d(lb - lg, lr - lg, (lb + lg + lr) / 3.0);
+            sum += cv::Vec3d(lb - lg, lr - lg, meanLog(v));
         }
         return sum * (1.0 / 3.0);
     };
@@ -386,12 +391,22 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
         spread[ch] = 1.4826 * v[v.size() / 2];
     }
     for (const int k : c.missingBins) {
-        const auto v = outside(angleOf(k));
-        if (!v) continue;
-        for (int ch = 0; ch < 3; ++ch) {
-            // Chromaticity either way; brightness only above the background's.
-            const double d = ch < 2 ? std::abs((*v)[ch] - median[ch]) : (*v)[ch] - median[ch];
-            if (d >= minLog && d > factor * spread[ch]) return true;
+        if (const auto v = outside(angleOf(k)))
+            for (int ch = 0; ch < 3; ++ch) {
+                // Chromaticity either way; brightness only above the background's.
+                const double d = ch < 2 ? std::abs((*v)[ch] - median[ch]) : (*v)[ch] - median[ch];
+                if (d >= minLog && d > factor * spread[ch]) return true;
+            }
+    }
+    if (!target) return false;
+    const double above = std::max(median[2], meanLog(*target)) + std::max(insideLog, factor * spread[2]);
+    for (const int k : c.missingBins) {
+        int bright = 0;
+        for (const double d : {0.5, 1.5, 2.5, 3.5, 4.5}) {
+            const cv::Point2d px = toPixel(pointOn(fit.ideal, angleOf(k), d));
+            bool own = false;
+            if (probe(px, own) != EdgeKind::Free || own) continue;
+            if (meanLog(colourAt(px)) >= above && ++bright == 2) return true;
         }
     }
     return false;

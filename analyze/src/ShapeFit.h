@@ -105,9 +105,19 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
 /// there (a stone, a speck of silt) whose pixels no filter passes, rather
 /// than the dark limb a filter left a bin short. @p colourAt gives the
 /// image's colour (B, G, R) at a distorted pixel.
+///
+/// With the target's own colour @p target (its mean, B, G, R), inside the
+/// ellipse is looked at too: where, 0.5-4.5 px inside at a missing bin, two
+/// pixels that are not the target's are brighter (mean log over the
+/// channels) than both the background and the target by @p insideLog and by
+/// @p factor times the background's spread, something bright lies in front
+/// of the outline there (a speck of silt whose mixed rim the filter cut
+/// open, so that the outline runs round it inside). What mixes the target's
+/// colour with the background's, or dims it, is not that bright.
 bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
                       const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
-                      double factor, double minLog);
+                      double factor, double minLog, const std::optional<cv::Vec3d>& target = std::nullopt,
+                      double insideLog = 0.5);
 
 /// The number of concavities of a silhouette's outline deeper than
 /// @p minDepthPx whose deepest point borders free background (not another

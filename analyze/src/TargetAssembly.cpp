@@ -898,7 +898,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, limits_);
             // A bin short may be a dim limb or something in front of it: what
             // lies beyond the bin tells (seeds 16, 31, 32: 6-10 px hidden
-            // behind silt or a stone, up to 10 mm off, had passed as whole).
+            // behind silt or a stone, up to 10 mm off, had passed as whole),
+            // or a speck brighter than target and background within it, the
+            // outline running round it (seed 55: 85 px hidden).
             if (!v.hidden && v.round.missing > 0) {
                 const cv::Mat& image = w.image;
                 const auto colourAt = [&image](const cv::Point2d& px) {
@@ -914,7 +916,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 v.hidden = foreignAtMissing(
                     camera, v.fit, v.round, colourAt,
                     [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
-                    limits_.foreignFactor, limits_.minForeignLog);
+                    limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour), limits_.minHoleColourLog);
             }
             // Judged by depth in assemble(); the seam bins are the outline's
             // own, so they leave it complete if it is the nearer one. Any

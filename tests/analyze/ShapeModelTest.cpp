@@ -1055,8 +1055,10 @@ TEST(Silhouette, ASpeckOpenedToTheBackgroundByAOnePixelMouthIsAHole) {
 // What lies just beyond a bin of the outline that no point supports tells
 // something in front of the target (a grey stone, silt: no filter passes
 // it) from a limb the filter left a bin short: foreignAtMissing() against the
-// free background all around. A circle of 30 px on a seabed of one colour
-// with 2 % noise; a patch beyond the missing bin.
+// free background all around; given the target's colour, inside it too (a
+// speck brighter than both in a notch the outline runs round). A circle of
+// 30 px on a seabed of one colour with 2 % noise; a patch beyond the missing
+// bin, or within it.
 TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
     const CameraIntrinsics camera;  // no distortion: ideal pixels are pixels less the principal point
     const cv::Point2d centre(camera.cc[0], camera.cc[1]);
@@ -1082,7 +1084,10 @@ TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
                            fit.ideal.center.y + std::sin(th) * u + std::cos(th) * v + camera.cc[1]);
     };
     const cv::Vec3d seabed(3000, 4000, 5000);
-    const auto judge = [&](const std::optional<std::pair<cv::Point2d, cv::Vec3d>>& patch) {
+    // @p target: the target's colour, and the patch is a notch inside it
+    // (not its pixels).
+    const auto judge = [&](const std::optional<std::pair<cv::Point2d, cv::Vec3d>>& patch,
+                           const std::optional<cv::Vec3d>& target = std::nullopt) {
         cv::Mat image(960, 1280, CV_16UC3);
         cv::RNG rng(7);
         for (int y = 0; y < image.rows; ++y)
@@ -1098,10 +1103,10 @@ TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
             return cv::Vec3d(image.at<cv::Vec3w>(static_cast<int>(std::lround(px.y)), static_cast<int>(std::lround(px.x))));
         };
         const auto probe = [&](const cv::Point2d& px, bool& own) {
-            own = cv::norm(px - centre) < radius;
+            own = cv::norm(px - centre) < radius && !(target && patch && cv::norm(px - patch->first) <= 3.0);
             return detail::EdgeKind::Free;
         };
-        return detail::foreignAtMissing(camera, fit, c, colourAt, probe, 4.0, 0.1);
+        return detail::foreignAtMissing(camera, fit, c, colourAt, probe, 4.0, 0.1, target, 0.5);
     };
     EXPECT_FALSE(judge(std::nullopt)) << "the seabed alone";
     const cv::Vec3d stone(6000, 6000, 6000);
@@ -1110,6 +1115,14 @@ TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
     EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), seabed * 0.6)))
         << "a shadow: the seabed's colour, darker";
     EXPECT_TRUE(judge(std::make_pair(beyond(angleOf(10), 2.5), seabed * 1.6))) << "the seabed's colour, brighter";
+    // Inside the outline at the missing bin, in a notch the outline runs round.
+    const cv::Vec3d orange(2000, 18000, 40000), silt(25000, 25000, 25000);
+    EXPECT_TRUE(judge(std::make_pair(beyond(angleOf(10), -2.5), silt), orange)) << "a speck of silt in the notch";
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(30), -2.5), silt), orange)) << "the speck at a supported bin";
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), -2.5), (orange + seabed) * 0.5), orange))
+        << "the target's colour mixed with the background's";
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), -2.5), orange * 0.6), orange)) << "a dim limb";
+    EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), -2.5), silt))) << "not looked at without the target's colour";
     c.missingBins.clear();
     c.missing = 0;
     EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), stone))) << "no missing bin: nothing is judged";
