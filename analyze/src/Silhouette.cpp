@@ -409,6 +409,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         };
         // 0 unseen, 1 seen, 2 a pocket's (until labelled), 3 labelled.
         cv::Mat seen;
+        bool anyPocket = false;
         std::vector<cv::Point> component, flood;
         const auto look = [&](int x, int y) {
             if ((!seen.empty() && seen.at<std::uint8_t>(y, x) != 0) || !open(x, y) || !within(x, y)) return;
@@ -438,8 +439,9 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     flood.push_back({qx, qy});
                 }
             }
-            if (!leaks)
-                for (const cv::Point& p : component) seen.at<std::uint8_t>(p) = 2;
+            if (leaks) return;
+            anyPocket = true;
+            for (const cv::Point& p : component) seen.at<std::uint8_t>(p) = 2;
         };
         for (int y = 1; y + 1 < h; ++y) {
             const std::uint8_t* r = lab.ptr<std::uint8_t>(y);
@@ -453,7 +455,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 if (r[x] == kOutside) look(x, y);
             }
         }
-        if (!seen.empty()) {
+        if (anyPocket) {  // labelled in raster order, as the holes
             const auto take = [&](int x, int y) {
                 std::uint8_t& s = seen.at<std::uint8_t>(y, x);
                 if (s != 2) return false;
