@@ -75,8 +75,15 @@ struct Silhouette {
         /// How far its mean colour is from the target's: the larger change
         /// of R/G and B/G, in natural log.
         double colourLog{0.0};
-        /// The standard error of that mean colour from the image noise (natural log).
+        /// The standard error of that mean colour from the image noise
+        /// around the hole (natural log; the larger of R/G's and B/G's).
         double noiseLog{0.0};
+        /// Its mean colour: natural log of R/G and of B/G.
+        cv::Vec2d ratiosLog{0.0, 0.0};
+        /// That colour less the target's around the hole (R/G, B/G, natural
+        /// log), and the standard error of each from the image noise there.
+        cv::Vec2d offsetLog{0.0, 0.0};
+        cv::Vec2d axisNoiseLog{0.0, 0.0};
     };
     std::vector<Hole> holes;
     /// The region examined (full-image coordinates) and its labels: what

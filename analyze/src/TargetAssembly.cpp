@@ -110,14 +110,11 @@ log4cpp::Category& logger() { return logging::category("analyze.assembly"); }
 
 bool isRound(TargetShape shape) { return shape == TargetShape::Sphere || shape == TargetShape::Disc; }
 
-/// Whether a silhouette has a hole that something in front of it makes: large
-/// enough and of a colour far enough from the target's, beyond its noise.
-bool holed(const Silhouette& sil, const CompletenessLimits& limits) {
-    for (const Silhouette::Hole& h : sil.holes)
-        if (h.areaPx >= limits.minHolePx && h.colourLog >= limits.minHoleColourLog &&
-            h.colourLog >= limits.holeNoiseFactor * h.noiseLog)
-            return true;
-    return false;
+/// Whether a silhouette has a hole that something in front of it makes
+/// (foreignHole()).
+bool holed(const Silhouette& sil, const TargetType& type, const CompletenessLimits& limits) {
+    return std::any_of(sil.holes.begin(), sil.holes.end(),
+                       [&](const Silhouette::Hole& h) { return foreignHole(h, type, limits); });
 }
 
 cv::Point2d toPixel(const CameraIntrinsics& camera, const cv::Point2d& normalised) {
@@ -219,6 +216,43 @@ std::optional<cv::Vec3f> partColour(const cv::Mat& image, const cv::Mat& mask, c
 }
 
 }  // namespace
+
+std::optional<cv::Vec3d> outsideFilterLog(const TargetType& type, const cv::Vec2d& ratiosLog) {
+    if (type.filter != ColorFilterMethod::RgbRatio || !type.brightnessBands.empty()) return std::nullopt;
+    const auto outside = [](double v, const Range& r) {
+        double d = 0.0;
+        if (r.min > 0.0) d = std::max(d, std::log(r.min) - v);
+        if (r.max > 0.0) d = std::max(d, v - std::log(r.max));
+        return d;
+    };
+    const double rg = ratiosLog[0], bg = ratiosLog[1];
+    return cv::Vec3d(outside(rg, type.redGreen), outside(bg, type.blueGreen), outside(rg - bg, type.redBlue));
+}
+
+double holeEvidence(const cv::Vec2d& offsetLog, const cv::Vec2d& noiseLog, const std::optional<cv::Vec3d>& outside) {
+    double evidence = 0.0;
+    const auto weigh = [&](double distance, double noise) {
+        evidence = std::max(evidence, noise > 0.0 ? distance / noise : distance > 0.0 ? 1e9 : 0.0);
+    };
+    for (int a = 0; a < 2; ++a) {
+        const bool cut = outside && ((*outside)[a] > 0.0 || (*outside)[2] > 0.0);
+        weigh(cut ? (*outside)[a] : std::abs(offsetLog[a]), noiseLog[a]);
+    }
+    if (outside && (*outside)[2] > 0.0) weigh((*outside)[2], std::hypot(noiseLog[0], noiseLog[1]));
+    return evidence;
+}
+
+bool foreignHole(const Silhouette::Hole& h, const TargetType& type, const CompletenessLimits& limits) {
+    if (h.areaPx < limits.minHolePx || h.colourLog < limits.minHoleColourLog) return false;
+    // Twice as far from the target's colour as counts at all, beyond the
+    // noise of its mean, it is no tail of the noise wherever the filter's
+    // edge lies (a speck of silt mixed with a target near the edge of a wide
+    // filter lies little past it).
+    const bool far =
+        h.colourLog >= 2.0 * limits.minHoleColourLog && h.colourLog >= limits.holeNoiseFactor * h.noiseLog;
+    return far ||
+           holeEvidence(h.offsetLog, h.axisNoiseLog, outsideFilterLog(type, h.ratiosLog)) >= limits.holeNoiseFactor;
+}
 
 // The sliver behind a contact (TargetAssembly.h says what it models).
 double hiddenAtContactPx(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
@@ -895,7 +929,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             });
             const int tolerance = limits_.maxUnsupportedBins;
             v.cut = v.round.cut > tolerance;
-            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, limits_);
+            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, type, limits_);
             // A bin short may be a dim limb or something in front of it: what
             // lies beyond the bin tells (seeds 16, 31, 32: 6-10 px hidden
             // behind silt or a stone, up to 10 mm off, had passed as whole),
@@ -1360,7 +1394,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                        << v.round.missing << (v.round.excess ? " excess" : "");
             stream << " colour " << sil.colour << " holes";
             for (const Silhouette::Hole& h : sil.holes)
-                if (h.areaPx >= limits_.minHolePx) stream << " " << h.areaPx << "/" << h.colourLog << "/" << h.noiseLog;
+                if (h.areaPx >= limits_.minHolePx)
+                    stream << " " << h.areaPx << "/" << h.colourLog << "/" << h.noiseLog << "/"
+                           << holeEvidence(h.offsetLog, h.axisNoiseLog, outsideFilterLog(type, h.ratiosLog));
             stream << (v.cut ? " CUT" : "") << (v.hidden ? " HIDDEN" : "") << (v.merged ? " MERGED" : "")
                    << (v.contact ? " CONTACT" : "");
         }
@@ -1415,7 +1451,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             return refuse("the outline is not two round parts", s);
         if (shareOutsideParts(camera, parts, sil, limits_.partThresholdPx) > limits_.maxStrayShare)
             return refuse("pixels outside the two parts", s);
-        const bool foreignHole = holed(sil, limits_);
+        const bool holedInFront = holed(sil, type, limits_);
         for (std::size_t i = 0; i < 2; ++i) {
             Sphere& sphere = views[static_cast<std::size_t>(s)][i];
             // Its own points away from the other sphere: at the waist
@@ -1443,7 +1479,7 @@ std::vector<TargetAssembler::Built> TargetAssembler::splitMerged(const AnalysisF
             for (const OutlinePoint& q : parts.outlines[i])
                 sphere.cut = sphere.cut || q.kind == EdgeKind::ImageEdge || q.kind == EdgeKind::WindowEdge;
             sphere.contact = c.hidden + c.seam > 0;  // any bin, as for a lone round target
-            sphere.holed = foreignHole;
+            sphere.holed = holedInFront;
         }
         // Each part's own colour, tested as a lone target's is: one feature
         // of one filter's colour may be two objects of two colours (a hazy

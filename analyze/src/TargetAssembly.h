@@ -20,6 +20,7 @@
 /// - kTargetWhole only when nothing says otherwise.
 
 #include "ColorFilterKernel.h"
+#include "Silhouette.h"
 
 #include <avatar/analyze/Feature.h>
 #include <avatar/analyze/ProcessStereoImagePair.h>
@@ -30,6 +31,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include <optional>
 #include <vector>
 
 namespace avatar::detail {
@@ -83,12 +85,16 @@ struct CompletenessLimits {
     /// A round silhouette with a hole of at least this many pixels (inside
     /// its outline, passed by no filter) whose mean colour differs from the
     /// target's by at least minHoleColourLog (R/G or B/G, natural log) and
-    /// by holeNoiseFactor times that mean's noise is hidden in part by
-    /// something in front of it. Noise leaves holes too: small ones, near
+    /// tells from the target by holeNoiseFactor times that mean's noise
+    /// (holeEvidence()), or differs by twice minHoleColourLog and by
+    /// holeNoiseFactor times the noise, is hidden in part by something in
+    /// front of it. Noise leaves holes too: small ones, near
     /// the target's colour (in the dark, single pixels stray far, and the
     /// pixels a filter leaves out are the noise's tail: holes of 4 px,
     /// 0.4-0.6 from the target's colour in log, in dark frames of the
-    /// trust report's seeds 30, 32 and 37 called whole targets hidden).
+    /// trust report's seeds 30, 32 and 37 called whole targets hidden; of
+    /// 5-19 px, 0.5-0.76 from it but only 0.1-0.35 past the filter's edge,
+    /// at a dim limb, in dark frames of seeds 40-57).
     int minHolePx{5};
     /// Largest difference (px) between the two views' top or bottom
     /// rectified rows (the epipolar tangency of a whole rigid object;
@@ -150,6 +156,27 @@ struct CompletenessLimits {
     /// outside the other's circle (the waist's mixed pixels bend both).
     double splitWaistPx{3.0};
 };
+
+/// How far a colour (natural log of R/G and of B/G) lies outside each of
+/// the ratio ranges of @p type's filter: R/G, B/G and R/B, natural log, 0
+/// inside. None when the filter is not a box of ratios (HSV, brightness
+/// bands).
+std::optional<cv::Vec3d> outsideFilterLog(const TargetType& type, const cv::Vec2d& ratiosLog);
+
+/// How many times its noise a hole's colour (@p offsetLog from the target's
+/// around it, R/G and B/G, natural log, each with its standard error
+/// @p noiseLog) tells it from the target: the largest over the ratios. On
+/// a ratio the filter cut the hole's pixels by (@p outside, from
+/// outsideFilterLog()) the pixels are chosen for straying, and a hole the
+/// noise makes lies just past the filter's edge however far that edge is
+/// from the target's colour: only how far past it counts. On any other
+/// ratio the hole's colour is a fair sample: its distance from the
+/// target's counts. Without @p outside, the distances on both.
+double holeEvidence(const cv::Vec2d& offsetLog, const cv::Vec2d& noiseLog, const std::optional<cv::Vec3d>& outside);
+
+/// Whether a hole in a round silhouette of @p type is made by something in
+/// front of the target (CompletenessLimits::minHolePx says when).
+bool foreignHole(const Silhouette::Hole& hole, const TargetType& type, const CompletenessLimits& limits);
 
 /// Which of @p types' filters (their search windows are ignored) pass the
 /// colour @p bgr (in the units of @p depth, CV_8U or CV_16U, with

@@ -1052,6 +1052,141 @@ TEST(Silhouette, ASpeckOpenedToTheBackgroundByAOnePixelMouthIsAHole) {
     EXPECT_TRUE(notch.holes.empty()) << "a mouth of three pixels: a notch";
 }
 
+// A hole's noise is the noise of the target's pixels around it, and a hole
+// something in front makes lies past the filter's edge by more than that
+// noise. In a dark frame a sphere's dim limb holds few blue electrons under
+// an orange target, and the pixels the filter leaves out there are the
+// noise's tail: a hole whose colour strays 0.55 in log B/G, 0.25 past the
+// filter's edge, is noise at the limb, where one pixel strays 0.24, and
+// something in front in the bright middle, where one pixel strays 0.03. A
+// circle of 40 px, its right third at an eighth of the light, read noise of
+// 60 in every sample; a hole of 3x2 px in each part, its pixels of the
+// target's colour there with blue raised by 0.55 in log; the filter's B/G
+// reaches 0.3 above the target's.
+TEST(Silhouette, AHolesNoiseIsTheNoiseAroundIt) {
+    const cv::Point2d centre(100.0, 100.0);
+    const double radius = 40.0, readNoise = 60.0;
+    const cv::Vec3d bright(2000, 18000, 40000), seabed(9000, 10000, 9000);  // B, G, R
+    const cv::Vec3d dim = bright * (1.0 / 8.0);
+    const cv::Rect brightHole(80, 95, 3, 2), dimHole(124, 95, 3, 2);
+    ImageWork w;
+    w.image.create(200, 200, CV_16UC3);
+    cv::Mat mask(w.image.size(), CV_8UC1, cv::Scalar(0));
+    std::mt19937 rng(7);
+    std::normal_distribution<double> noise(0.0, readNoise);
+    for (int y = 0; y < mask.rows; ++y)
+        for (int x = 0; x < mask.cols; ++x) {
+            const bool inTarget = cv::norm(cv::Point2d(x, y) - centre) < radius;
+            const bool inHole = brightHole.contains({x, y}) || dimHole.contains({x, y});
+            cv::Vec3d c = !inTarget ? seabed : x > centre.x + radius / 3.0 ? dim : bright;
+            if (inHole) c[0] *= std::exp(0.55);
+            cv::Vec3w& p = w.image.at<cv::Vec3w>(y, x);
+            for (int ch = 0; ch < 3; ++ch) p[ch] = cv::saturate_cast<std::uint16_t>(c[ch] + noise(rng));
+            if (inTarget && !inHole) mask.at<std::uint8_t>(y, x) = 255;
+        }
+    const Feature feature = soleFeature(w, mask);
+    const detail::Silhouette sil = detail::measureSilhouette(w, 0, feature, {0, 0, 200, 200}, 1.0);
+    ASSERT_EQ(sil.holes.size(), 2u);
+    const detail::Silhouette::Hole& inBright = sil.holes[0];  // raster order: the bright one's first pixel comes first
+    const detail::Silhouette::Hole& inDim = sil.holes[1];
+    EXPECT_EQ(inBright.areaPx, 6);
+    EXPECT_EQ(inDim.areaPx, 6);
+    // The colours: 0.55 from the target's, give or take the noise of six pixels.
+    EXPECT_NEAR(inBright.colourLog, 0.55, 0.05);
+    EXPECT_NEAR(inDim.colourLog, 0.55, 0.25);
+    EXPECT_NEAR(inBright.ratiosLog[1], std::log(bright[0] / bright[1]) + 0.55, 0.05);
+    // Its mean's noise: one pixel's B/G noise (readNoise over blue; G's adds
+    // little) twice over the root of six (the mosaic's factor).
+    const double brightNoise = 2.0 * readNoise / bright[0] / std::sqrt(6.0);
+    const double dimNoise = 2.0 * readNoise / dim[0] / std::sqrt(6.0);
+    EXPECT_NEAR(inBright.noiseLog, brightNoise, 0.3 * brightNoise);
+    EXPECT_NEAR(inDim.noiseLog, dimNoise, 0.3 * dimNoise);
+    TargetType orange;
+    orange.name = "orange";
+    orange.redGreen = {bright[2] / bright[1] * std::exp(-0.3), bright[2] / bright[1] * std::exp(0.3)};
+    orange.blueGreen = {bright[0] / bright[1] * std::exp(-0.3), bright[0] / bright[1] * std::exp(0.3)};
+    const auto brightPast = detail::outsideFilterLog(orange, inBright.ratiosLog);
+    const auto dimPast = detail::outsideFilterLog(orange, inDim.ratiosLog);
+    ASSERT_TRUE(brightPast && dimPast);
+    EXPECT_NEAR((*brightPast)[1], 0.25, 0.05) << "past B/G's maximum";
+    EXPECT_EQ((*brightPast)[0], 0.0) << "R/G within its range";
+    // Against the target's colour around it: 0.55 in B/G, nothing in R/G.
+    EXPECT_NEAR(inBright.offsetLog[1], 0.55, 0.05);
+    EXPECT_NEAR(inBright.offsetLog[0], 0.0, 4.0 * inBright.axisNoiseLog[0]);
+    EXPECT_NEAR(inDim.offsetLog[0], 0.0, 4.0 * inDim.axisNoiseLog[0]);
+    // Cut by B/G: only how far past the edge counts there.
+    EXPECT_GT(detail::holeEvidence(inBright.offsetLog, inBright.axisNoiseLog, brightPast), 4.0) << "something in front";
+    EXPECT_LT(detail::holeEvidence(inDim.offsetLog, inDim.axisNoiseLog, dimPast), 4.0) << "the noise's tail";
+    // Without the filter's ranges, its 0.55 from the target's colour tells both from it.
+    EXPECT_GT(detail::holeEvidence(inDim.offsetLog, inDim.axisNoiseLog, std::nullopt), 1.0);
+}
+
+// How far a colour lies outside a type's ratio ranges: 0 inside, the
+// largest excess over R/G, B/G and R/B outside; none for a filter that is
+// no box of ratios.
+TEST(Completeness, HowFarAColourLiesOutsideTheFilter) {
+    TargetType t;
+    t.name = "orange";
+    t.redGreen = {1.5, 3.0};
+    t.blueGreen = {0.05, 0.2};
+    const auto at = [&](double rg, double bg) { return *detail::outsideFilterLog(t, {std::log(rg), std::log(bg)}); };
+    EXPECT_EQ(at(2.0, 0.1), cv::Vec3d(0, 0, 0));
+    EXPECT_NEAR(at(1.5 * std::exp(-0.1), 0.1)[0], 0.1, 1e-12);
+    const cv::Vec3d both = at(3.0 * std::exp(0.2), 0.05 * std::exp(-0.05));
+    EXPECT_NEAR(both[0], 0.2, 1e-12);
+    EXPECT_NEAR(both[1], 0.05, 1e-12);
+    EXPECT_NEAR(at(1.0, 1.0)[1], std::log(1.0 / 0.2), 1e-12) << "grey: far past B/G's maximum";
+    t.redBlue = {20.0, 40.0};
+    EXPECT_NEAR(at(2.0, 0.2)[2], std::log(20.0 / 10.0), 1e-12) << "R/B 10 against a minimum of 20";
+    TargetType banded = t;
+    banded.brightnessBands.push_back({{0.0, 1000.0}, {1.0, 4.0}, {0.0, 1e9}, {0.0, 1.0}});
+    EXPECT_FALSE(detail::outsideFilterLog(banded, {0.0, 0.0}));
+    TargetType hsv = t;
+    hsv.filter = ColorFilterMethod::Hsv;
+    EXPECT_FALSE(detail::outsideFilterLog(hsv, {0.0, 0.0}));
+}
+
+// A hole's evidence: on a ratio the filter cut its pixels by, how far past
+// the edge (in noise); on the other, how far from the target's colour. A
+// grey speck on an orange target strays in both: past B/G's edge by little
+// where the filter reaches far, but its R/G, inside a range grown for the
+// water, is far from the target's. Noise strays in B/G alone.
+TEST(Completeness, AHoleIsJudgedPastTheFilterOnTheRatioThatCutIt) {
+    const cv::Vec2d noise(0.02, 0.1);
+    const cv::Vec3d pastBlue(0.0, 0.3, 0.0);
+    EXPECT_NEAR(detail::holeEvidence({0.01, 0.6}, noise, pastBlue), 3.0, 1e-12) << "noise: 0.3 past, 3 of its noise";
+    EXPECT_NEAR(detail::holeEvidence({-0.8, 1.3}, noise, pastBlue), 40.0, 1e-12) << "grey: R/G 0.8 off";
+    EXPECT_NEAR(detail::holeEvidence({0.01, 0.6}, noise, std::nullopt), 6.0, 1e-12) << "no ranges: the distances";
+    EXPECT_NEAR(detail::holeEvidence({0.01, 0.6}, noise, cv::Vec3d(0.0, 0.0, 0.2)), 0.2 / std::hypot(0.02, 0.1),
+                1e-12)
+        << "cut by R/B: both ratios chosen, R/B's excess over its noise";
+
+    // Whole holes against a filter whose B/G reaches 0.3 above the target's
+    // (B/G 0.12) and whose R/G reaches 0.2 below it (R/G 1.2).
+    TargetType orange;
+    orange.name = "orange";
+    orange.redGreen = {1.2 * std::exp(-0.2), 1.2 * std::exp(0.5)};
+    orange.blueGreen = {0.12 * std::exp(-0.5), 0.12 * std::exp(0.3)};
+    const detail::CompletenessLimits limits;
+    const auto hole = [&](int area, double offsetRg, double offsetBg, double noiseRg, double noiseBg) {
+        detail::Silhouette::Hole h;
+        h.areaPx = area;
+        h.offsetLog = {offsetRg, offsetBg};
+        h.ratiosLog = cv::Vec2d(std::log(1.2), std::log(0.12)) + h.offsetLog;
+        h.colourLog = std::max(std::abs(offsetRg), std::abs(offsetBg));
+        h.axisNoiseLog = {noiseRg, noiseBg};
+        h.noiseLog = std::max(noiseRg, noiseBg);
+        return detail::foreignHole(h, orange, limits);
+    };
+    EXPECT_FALSE(hole(6, 0.0, 0.55, 0.02, 0.1)) << "noise: 0.25 past B/G's edge, 2.5 of its noise";
+    EXPECT_TRUE(hole(6, 0.0, 0.55, 0.02, 0.05)) << "5 of its noise past the edge";
+    EXPECT_TRUE(hole(6, -0.25, 1.0, 0.05, 0.2))
+        << "a speck mixed with the target: cut by R/G and B/G, 0.05 and 0.7 past (1 and 3.5 of the noise), but 1.0 off";
+    EXPECT_FALSE(hole(6, -0.25, 1.0, 0.05, 0.3)) << "as far, but within four times its noise";
+    EXPECT_FALSE(hole(4, 0.0, 1.3, 0.02, 0.05)) << "too small";
+    EXPECT_FALSE(hole(6, 0.0, 0.45, 0.02, 0.01)) << "too near the target's colour";
+}
+
 // What lies just beyond a bin of the outline that no point supports tells
 // something in front of the target (a grey stone, silt: no filter passes
 // it) from a limb the filter left a bin short: foreignAtMissing() against the
