@@ -1161,8 +1161,9 @@ TEST(Completeness, AHoleIsJudgedPastTheFilterOnTheRatioThatCutIt) {
                 1e-12)
         << "cut by R/B: both ratios chosen, R/B's excess over its noise";
 
-    // Whole holes against a filter whose B/G reaches 0.3 above the target's
-    // (B/G 0.12) and whose R/G reaches 0.2 below it (R/G 1.2).
+    // Holes judged in full (size, colour, evidence) against a filter whose
+    // B/G reaches 0.3 above the target's (B/G 0.12) and whose R/G reaches
+    // 0.2 below it (R/G 1.2).
     TargetType orange;
     orange.name = "orange";
     orange.redGreen = {1.2 * std::exp(-0.2), 1.2 * std::exp(0.5)};
