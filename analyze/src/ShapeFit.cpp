@@ -317,6 +317,18 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
             ++c.missing;
             c.shallow += ownDeep;
             c.missingBins.push_back(k);
+            // Where the probes meet a fragment: on the ellipse, inside it
+            // (the probes above) or within 2 px outside it.
+            const std::size_t before = c.fragmentPx.size();
+            for (const double d : {1.75, 0.75, 0.0, -1.0, -2.0}) {
+                const cv::Point2d px = toPixel(pointOn(fit.ideal, t, d));
+                bool own = false;
+                if (probe(px, own) == EdgeKind::Fragment) c.fragmentPx.push_back(px);
+            }
+            if (c.fragmentPx.size() > before) {
+                c.fragmentBins.push_back(k);
+                c.fragmentShallow += ownDeep;
+            }
         }
     }
     // Points well outside the ellipse (beyond its inlier limit and
@@ -343,6 +355,19 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
     return c;
 }
 
+RoundCompleteness withoutFragments(const RoundCompleteness& c) {
+    RoundCompleteness rest = c;
+    rest.missing -= static_cast<int>(c.fragmentBins.size());
+    rest.shallow -= c.fragmentShallow;
+    rest.fragmentShallow = 0;
+    rest.fragmentPx.clear();
+    rest.missingBins.clear();
+    for (const int k : c.missingBins)
+        if (std::find(c.fragmentBins.begin(), c.fragmentBins.end(), k) == c.fragmentBins.end())
+            rest.missingBins.push_back(k);
+    return rest;
+}
+
 bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
                       const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
                       double factor, double minLog, const std::optional<cv::Vec3d>& target, double insideLog) {
@@ -364,7 +389,9 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
         for (const double d : {1.5, 2.5, 3.5}) {
             const cv::Point2d px = toPixel(pointOn(fit.ideal, t, -d));
             bool own = false;
-            if (probe(px, own) != EdgeKind::Free || own) return std::nullopt;
+            // A fragment's pixels are read as what lies there.
+            const EdgeKind kind = probe(px, own);
+            if ((kind != EdgeKind::Free && kind != EdgeKind::Fragment) || own) return std::nullopt;
             const cv::Vec3d v = colourAt(px);
             const double lb = std::log1p(std::max(v[0], 0.0)), lg = std::log1p(std::max(v[1], 0.0)),
                          lr = std::log1p(std::max(v[2], 0.0));
@@ -376,7 +403,9 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
     };
     std::vector<double> channels[3];
     for (int k = 0; k < c.bins; ++k) {
-        if (std::find(c.missingBins.begin(), c.missingBins.end(), k) != c.missingBins.end()) continue;
+        if (std::find(c.missingBins.begin(), c.missingBins.end(), k) != c.missingBins.end() ||
+            std::find(c.fragmentBins.begin(), c.fragmentBins.end(), k) != c.fragmentBins.end())
+            continue;
         if (const auto v = outside(angleOf(k)))
             for (int ch = 0; ch < 3; ++ch) channels[ch].push_back((*v)[ch]);
     }
@@ -405,7 +434,8 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
         for (const double d : {0.5, 1.5, 2.5, 3.5, 4.5}) {
             const cv::Point2d px = toPixel(pointOn(fit.ideal, angleOf(k), d));
             bool own = false;
-            if (probe(px, own) != EdgeKind::Free || own) continue;
+            const EdgeKind kind = probe(px, own);
+            if ((kind != EdgeKind::Free && kind != EdgeKind::Fragment) || own) continue;
             if (meanLog(colourAt(px)) >= above && ++bright == 2) return true;
         }
     }

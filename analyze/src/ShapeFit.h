@@ -78,8 +78,19 @@ struct RoundCompleteness {
     /// on a short arc may be.
     int shallow{0};
     std::vector<int> missingBins;  ///< which bins are missing (bin k spans angle parameters -pi + [k, k + 1) 2 pi / bins)
+    /// The missing bins at a fragment (pixels of a filter that are no
+    /// feature's) on the ellipse or within 2 px either side of it: what is
+    /// there may be an object behind the target or in front of it, which
+    /// only the other view can tell. Each is in missingBins too.
+    std::vector<int> fragmentBins;
+    int fragmentShallow{0};  ///< of the fragment bins, those that are shallow
+    std::vector<cv::Point2d> fragmentPx;  ///< where a fragment bin's probes met the fragment (distorted pixels)
     bool excess{false};    ///< outline points well outside the ellipse: more than one object
 };
+
+/// @p c as if its fragment bins were explained (not missing): what is left
+/// once the other view has shown the fragments to lie behind the target.
+RoundCompleteness withoutFragments(const RoundCompleteness& c);
 
 /// The conic (undistorted normalised coordinates, x^T Q x = 0) of ellipse
 /// @p e given in ideal pixels (normalised x @p f) relative to @p offset

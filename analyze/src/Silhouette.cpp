@@ -239,7 +239,22 @@ EdgeKind Silhouette::probe(const cv::Point2d& px, const cv::Size& image, const c
     if (labels.empty() || x < 0 || y < 0 || x >= labels.cols || y >= labels.rows) return EdgeKind::Free;
     const std::uint8_t l = labels.at<std::uint8_t>(y, x);
     own = l == kFeature;
-    return l == kOther ? EdgeKind::Contact : EdgeKind::Free;
+    return l == kOther ? EdgeKind::Contact : l == kFragment ? EdgeKind::Fragment : EdgeKind::Free;
+}
+
+std::vector<Silhouette::Fragment> Silhouette::fragments() const {
+    std::vector<Fragment> out;
+    if (labels.empty()) return out;
+    const cv::Mat fragment = labels == kFragment;
+    if (cv::countNonZero(fragment) == 0) return out;
+    cv::Mat components, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(fragment, components, stats, centroids, 8, CV_32S);
+    for (int i = 1; i < n; ++i) {
+        const cv::Rect local(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                             stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+        out.push_back({local + region.tl(), components(local) == i});
+    }
+    return out;
 }
 
 Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const Feature& feature,

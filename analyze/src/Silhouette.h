@@ -93,8 +93,15 @@ struct Silhouette {
 
     /// What lies at a pixel position: ImageEdge beyond the image's outer
     /// pixel edges, WindowEdge beyond the window's, Contact on another
-    /// target's pixels, Free otherwise; @p own is set on this feature's pixels.
+    /// target's pixels, Fragment on a fragment's, Free otherwise; @p own is
+    /// set on this feature's pixels.
     EdgeKind probe(const cv::Point2d& px, const cv::Size& image, const cv::Rect& window, bool& own) const;
+    /// An 8-connected group of fragment pixels in the region.
+    struct Fragment {
+        cv::Rect box;  ///< full-image coordinates
+        cv::Mat mask;  ///< CV_8UC1 of the box's size, 255 on its pixels
+    };
+    std::vector<Fragment> fragments() const;
 };
 
 /// cv::floodFill(@p labels, @p seed, @p to) with no tolerance, for a CV_8UC1

@@ -97,6 +97,10 @@ struct ViewVerdict {
     bool modelUsable{false};
     bool cut{false}, hidden{false}, merged{false};
     bool contact{false};    ///< touches another target (to be judged by depth)
+    /// Complete but for bins at fragments, which the other view must show
+    /// to lie behind it (assemble()): where those bins met them.
+    bool atFragment{false};
+    std::vector<cv::Point2d> fragmentPx;
     bool touchesEdge{false};
     bool contactOffBody{false};  ///< Built::contactOffBody
     int roundParts{0};           ///< a composite's parts with an ellipse
@@ -669,6 +673,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         std::size_t target;
         cv::Rect box[2];
         bool contact[2];
+        std::array<std::vector<Unseen>, 2> fragments;  ///< Built::fragments
         bool contactOffBody[2];  ///< Built::contactOffBody
         int group;  ///< targets of one feature pair (splitMerged()) judge each other themselves
         double sphereRadiusMm;  ///< Built::sphereRadiusMm
@@ -689,7 +694,8 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             for (Built& one : split) {
                 out.push_back(std::move(one.target));
                 placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {one.contact[0], one.contact[1]},
-                                  {one.contactOffBody[0], one.contactOffBody[1]}, group, one.sphereRadiusMm});
+                                  std::move(one.fragments), {one.contactOffBody[0], one.contactOffBody[1]}, group,
+                                  one.sphereRadiusMm});
             }
         }
         for (std::size_t o = 0; o < left.size(); ++o)
@@ -706,24 +712,41 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
     std::vector<std::uint32_t> viewFlags(out.size(), 0);
     for (const Placed& p : placed) viewFlags[p.target] = out[p.target].flags;
     // The objects seen in one view only, per view: their boxes and types.
-    struct Lone {
-        cv::Rect box;
-        std::vector<std::size_t> types;
-    };
-    std::array<std::vector<Lone>, 2> lone;
+    std::array<std::vector<Unseen>, 2> lone;
     for (int side = 0; side < 2; ++side) {
         const std::vector<Object>& objs = side == 0 ? left : right;
         const std::vector<int>& use = side == 0 ? leftUse : rightUse;
         for (std::size_t o = 0; o < objs.size(); ++o) {
             if (use[o] != 0) continue;
-            Lone l{objs[o].feature.box, {}};
+            Unseen l{objs[o].feature.box, {}};
             for (const Member& m : objs[o].members) l.types.push_back(m.type);
             lone[static_cast<std::size_t>(side)].push_back(std::move(l));
         }
     }
+    // Half a target's radius of doubt in its own disparity (below).
+    const auto minDisparity = [](const VisionTarget& t) {
+        const double radiusPx = std::sqrt(std::max(t.areaLeftPx, 1.0) / M_PI);
+        return t.centroidLeftPx->x - t.centroidRightPx->x - 0.5 * radiusPx;
+    };
     for (const Placed& a : placed) {
         VisionTarget& ta = out[a.target];
         for (int side = 0; side < 2; ++side) {
+            // Bins at fragments: each fragment must lie behind this target,
+            // as an object one view alone shows must (below).
+            const auto& fragments = a.fragments[static_cast<std::size_t>(side)];
+            if (!fragments.empty()) {
+                bool behind = ta.positionVisionMm && ta.centroidLeftPx && ta.centroidRightPx;
+                for (const Unseen& f : fragments)
+                    behind = behind && !f.types.empty() &&
+                             behindByAbsence(frame, config_.match, config_.targets.targets, f.box, f.types,
+                                             side == 0 ? Side::Left : Side::Right, minDisparity(ta));
+                if (!behind) ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+                if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+                    log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
+                                      << ": complete but for " << fragments.size() << " fragment(s) in the "
+                                      << (side == 0 ? "left" : "right") << " view, "
+                                      << (behind ? "all behind it: not occluded there" : "not all behind it: occluded there");
+            }
             if (!a.contact[side]) continue;
             bool nearer = ta.positionVisionMm.has_value();
             bool any = false;
@@ -797,11 +820,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             // above.
             bool behindLone = false;
             if (!any && ta.centroidLeftPx && ta.centroidRightPx) {
-                const double radiusPx = std::sqrt(std::max(ta.areaLeftPx, 1.0) / M_PI);
-                const double disparity = ta.centroidLeftPx->x - ta.centroidRightPx->x - 0.5 * radiusPx;
+                const double disparity = minDisparity(ta);
                 int touching = 0;
                 behindLone = true;
-                for (const Lone& l : lone[static_cast<std::size_t>(side)]) {
+                for (const Unseen& l : lone[static_cast<std::size_t>(side)]) {
                     if ((grown(a.box[side], 3) & l.box).empty()) continue;
                     ++touching;
                     behindLone = behindLone && behindByAbsence(frame, config_.match, config_.targets.targets, l.box,
@@ -929,28 +951,41 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             });
             const int tolerance = limits_.maxUnsupportedBins;
             v.cut = v.round.cut > tolerance;
-            v.hidden = v.round.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holed(sil, type, limits_);
             // A bin short may be a dim limb or something in front of it: what
             // lies beyond the bin tells (seeds 16, 31, 32: 6-10 px hidden
             // behind silt or a stone, up to 10 mm off, had passed as whole),
             // or a speck brighter than target and background within it, the
             // outline running round it (seed 55: 85 px hidden).
-            if (!v.hidden && v.round.missing > 0) {
-                const cv::Mat& image = w.image;
-                const auto colourAt = [&image](const cv::Point2d& px) {
-                    const int x = std::clamp(static_cast<int>(std::lround(px.x)), 0, image.cols - 1);
-                    const int y = std::clamp(static_cast<int>(std::lround(px.y)), 0, image.rows - 1);
-                    switch (image.type()) {
-                        case CV_16UC3: return cv::Vec3d(image.at<cv::Vec3w>(y, x));
-                        case CV_8UC3: return cv::Vec3d(image.at<cv::Vec3b>(y, x));
-                        case CV_32FC3: return cv::Vec3d(image.at<cv::Vec3f>(y, x));
-                        default: return cv::Vec3d(0, 0, 0);
-                    }
-                };
-                v.hidden = foreignAtMissing(
-                    camera, v.fit, v.round, colourAt,
-                    [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
-                    limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour), limits_.minHoleColourLog);
+            const cv::Mat& image = w.image;
+            const auto colourAt = [&image](const cv::Point2d& px) {
+                const int x = std::clamp(static_cast<int>(std::lround(px.x)), 0, image.cols - 1);
+                const int y = std::clamp(static_cast<int>(std::lround(px.y)), 0, image.rows - 1);
+                switch (image.type()) {
+                    case CV_16UC3: return cv::Vec3d(image.at<cv::Vec3w>(y, x));
+                    case CV_8UC3: return cv::Vec3d(image.at<cv::Vec3b>(y, x));
+                    case CV_32FC3: return cv::Vec3d(image.at<cv::Vec3f>(y, x));
+                    default: return cv::Vec3d(0, 0, 0);
+                }
+            };
+            const bool holes = holed(sil, type, limits_);
+            const auto hiddenBy = [&](const RoundCompleteness& c) {
+                if (c.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holes) return true;
+                return c.missing > 0 &&
+                       foreignAtMissing(
+                           camera, v.fit, c, colourAt,
+                           [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
+                           limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour),
+                           limits_.minHoleColourLog);
+            };
+            v.hidden = hiddenBy(v.round);
+            // Hidden only by bins at fragments (another filter's pixels that
+            // make no feature: a target behind this one that shows too little
+            // here to be one, trust_report seeds 11 and 35): whether they lie
+            // in front, only the other view tells (assemble()).
+            if (v.hidden && !v.round.fragmentBins.empty() && !hiddenBy(withoutFragments(v.round))) {
+                v.hidden = false;
+                v.atFragment = true;
+                v.fragmentPx = v.round.fragmentPx;
             }
             // Judged by depth in assemble(); the seam bins are the outline's
             // own, so they leave it complete if it is the nearer one. Any
@@ -984,6 +1019,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             }
             const int tolerance = limits_.maxUnsupportedBins;
             bool partHidden = false;
+            bool partHiddenButFragments = false;  // were the fragments' bins explained
+            bool fragments = false;
             // Any contact is judged by depth: a part's arc may pass behind
             // a neighbour where no bin of its circle shows it.
             v.contact = sil.contactPoints > 0;
@@ -996,9 +1033,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 v.cut = v.cut || c.cut > tolerance;
                 v.contact = v.contact || c.hidden + c.seam > tolerance;
                 if (static_cast<int>(i) != body) v.contactOffBody = v.contactOffBody || c.hidden + c.seam > 0;
-                if (static_cast<int>(i) == body) {
-                    partHidden = partHidden || c.missing > tolerance || p.rmsPx > limits_.maxFitRmsPx;
-                } else if (c.supported >= limits_.minPartCoverage * c.bins) {
+                const auto hiddenBy = [&](const RoundCompleteness& r) {
+                    if (static_cast<int>(i) == body) return r.missing > tolerance || p.rmsPx > limits_.maxFitRmsPx;
                     // Another part (the head) is checked only when enough
                     // of its arc shows to fix its circle; a small part of
                     // its own may cover some of it (the beak). Its misses
@@ -1006,8 +1042,13 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     // short of the circle: a circle fitted on a short arc
                     // may lie a pixel or two outside (whole ducks at 2.3 m
                     // were occluded so, trust_report seeds 56 and 59).
-                    partHidden = partHidden || c.missing - c.shallow > limits_.maxPartMissing * c.bins;
-                }
+                    return c.supported >= limits_.minPartCoverage * c.bins &&
+                           r.missing - r.shallow > limits_.maxPartMissing * c.bins;
+                };
+                partHidden = partHidden || hiddenBy(c);
+                partHiddenButFragments = partHiddenButFragments || hiddenBy(withoutFragments(c));
+                fragments = fragments || !c.fragmentBins.empty();
+                v.fragmentPx.insert(v.fragmentPx.end(), c.fragmentPx.begin(), c.fragmentPx.end());
                 if (static_cast<int>(i) == body) v.round = c;
                 if (log4cpp::Category& log = logger(); log.isDebugEnabled())
                     log.debugStream() << "  part " << i << ": " << v.parts.outlines[i].size() << " points, ellipse "
@@ -1063,6 +1104,12 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 }
             v.merged = v.strayShare > limits_.maxStrayShare;
             v.hidden = !v.merged && partHidden;
+            if (v.hidden && fragments && !partHiddenButFragments) {  // as for a round target
+                v.hidden = false;
+                v.atFragment = true;
+            } else {
+                v.fragmentPx.clear();
+            }
             v.roundFits = !v.cut && !v.hidden && !v.merged;
             v.modelUsable = bodyFits && !v.merged && v.fit.rmsPx <= limits_.maxFitRmsPx &&
                             2 * v.round.supported >= v.round.bins;
@@ -1172,6 +1219,26 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         if (v.hidden) target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
         if (v.merged) target.flags |= kTargetMerged;
         built.contact[s] = v.contact;  // judged by depth in assemble()
+        if (v.atFragment) {
+            // The fragments the bins met (not every one around it: specks of
+            // the filters' noise in haze, which explain nothing here).
+            const ImageWork& w = frame.at(s == 0 ? Side::Left : Side::Right);
+            for (const Silhouette::Fragment& fragment : v.silhouette.fragments()) {
+                const bool met = std::any_of(v.fragmentPx.begin(), v.fragmentPx.end(), [&](const cv::Point2d& px) {
+                    const cv::Point p(static_cast<int>(std::lround(px.x)), static_cast<int>(std::lround(px.y)));
+                    return fragment.box.contains(p) && fragment.mask.at<std::uint8_t>(p - fragment.box.tl()) != 0;
+                });
+                if (!met) continue;
+                Unseen f{fragment.box, {}};
+                for (std::size_t t = 0; t < w.masks.size(); ++t)
+                    if (!w.masks[t].empty() && cv::countNonZero(w.masks[t](fragment.box) & fragment.mask) > 0)
+                        f.types.push_back(t);
+                built.fragments[static_cast<std::size_t>(s)].push_back(std::move(f));
+            }
+            // None found (cannot happen: the bins saw its pixels) leaves it hidden.
+            if (built.fragments[static_cast<std::size_t>(s)].empty())
+                target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+        }
         built.contactOffBody[s] = v.contactOffBody;
     }
     if (model == ShapeModel::Sphere || model == ShapeModel::Composite) built.sphereRadiusMm = sphereRadiusMm;
@@ -1398,7 +1465,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     stream << " " << h.areaPx << "/" << h.colourLog << "/" << h.noiseLog << "/"
                            << holeEvidence(h.offsetLog, h.axisNoiseLog, outsideFilterLog(type, h.ratiosLog));
             stream << (v.cut ? " CUT" : "") << (v.hidden ? " HIDDEN" : "") << (v.merged ? " MERGED" : "")
-                   << (v.contact ? " CONTACT" : "");
+                   << (v.contact ? " CONTACT" : "") << (v.atFragment ? " AT-FRAGMENT" : "");
         }
     }
     return built;

@@ -31,6 +31,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include <array>
 #include <optional>
 #include <vector>
 
@@ -231,11 +232,20 @@ public:
 
 private:
     struct Object;
+    /// Something one view shows beside a target (an object the other view
+    /// does not, or a fragment): its box and the types whose filters pass it.
+    struct Unseen {
+        cv::Rect box;
+        std::vector<std::size_t> types;
+    };
     /// A stereo target, and in which views it touches another target (which
     /// only the depths of the targets it touches can judge).
     struct Built {
         VisionTarget target;
         bool contact[2]{false, false};
+        /// Per view: complete but for bins at these fragments, each of which
+        /// the other view must show to lie behind it; empty: none.
+        std::array<std::vector<Unseen>, 2> fragments;
         /// A composite's contact in a view that is not all on its body's
         /// outline (a contact point nearer another part's circle than the
         /// body's, or another part's bins at a target): what its body's

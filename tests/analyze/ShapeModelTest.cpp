@@ -1264,6 +1264,84 @@ TEST(Completeness, WhatLiesBeyondAMissingBinTellsAStoneFromTheBackground) {
     EXPECT_FALSE(judge(std::make_pair(beyond(angleOf(10), 2.5), stone))) << "no missing bin: nothing is judged";
 }
 
+// A round outline short of its ellipse over two arcs, one beyond which lies
+// the background and one beyond which lies a fragment (pixels of a filter
+// that make no feature: an object behind the target that shows too little
+// to be a target, or one in front). roundCompleteness() lists the bins at
+// the fragment among the missing ones and apart (fragmentBins), which the
+// other view may explain (withoutFragments()); foreignAtMissing() reads the
+// fragment's pixels as what lies there, as before fragments were told apart,
+// and leaves them out of the background it judges against. A circle of 30
+// px, its silhouette 6 px short over each arc.
+TEST(Completeness, BinsShortAtAFragmentAreMissingAndListedApart) {
+    const CameraIntrinsics camera;  // no distortion
+    const cv::Point2d centre(camera.cc[0], camera.cc[1]);
+    const double radius = 30.0, kShort = 6.0;
+    // The arcs: around angle 0 (the fragment beyond) and around pi / 2 (background).
+    const auto inArc = [](double a, double middle) { return std::abs(std::remainder(a - middle, 2.0 * M_PI)) < 0.2; };
+    std::vector<detail::OutlinePoint> outline;
+    for (int k = 0; k < 180; ++k) {
+        const double a = 2.0 * M_PI * k / 180.0;
+        const bool short_ = inArc(a, 0.0) || inArc(a, M_PI / 2);
+        outline.push_back({centre + (short_ ? radius - kShort : radius) * cv::Point2d(std::cos(a), std::sin(a)),
+                           detail::EdgeKind::Free, 0.1});
+    }
+    const detail::EllipseFit fit = detail::fitEllipse(camera, outline, 0.5);
+    ASSERT_TRUE(fit.ok);
+    const auto angle = [&](const cv::Point2d& px) { return std::atan2(px.y - centre.y, px.x - centre.x); };
+    const auto ownAt = [&](const cv::Point2d& px) {
+        const double r = cv::norm(px - centre), a = angle(px);
+        return r < ((inArc(a, 0.0) || inArc(a, M_PI / 2)) ? radius - kShort : radius);
+    };
+    const auto fragmentAt = [&](const cv::Point2d& px) {
+        const double r = cv::norm(px - centre);
+        return inArc(angle(px), 0.0) && r >= radius - kShort && r < radius + 6.0;
+    };
+    const auto probe = [&](const cv::Point2d& px, bool& own) {
+        own = ownAt(px);
+        return !own && fragmentAt(px) ? detail::EdgeKind::Fragment : detail::EdgeKind::Free;
+    };
+    const detail::RoundCompleteness c = detail::roundCompleteness(camera, fit, outline, probe);
+    ASSERT_GT(c.missing, 4);
+    ASSERT_FALSE(c.fragmentBins.empty());
+    // Bin k's angle about the centre in the image (its ellipse parameter
+    // turned by the ellipse's orientation: the fit is a circle).
+    const auto binAngle = [&](int k) {
+        return -M_PI + (k + 0.5) * 2.0 * M_PI / c.bins + fit.ideal.angle * M_PI / 180.0;
+    };
+    for (const int k : c.missingBins) {
+        const bool listed = std::find(c.fragmentBins.begin(), c.fragmentBins.end(), k) != c.fragmentBins.end();
+        EXPECT_EQ(listed, inArc(binAngle(k), 0.0)) << "bin " << k << " at " << binAngle(k) << " rad";
+    }
+    for (const int k : c.fragmentBins)
+        EXPECT_NE(std::find(c.missingBins.begin(), c.missingBins.end(), k), c.missingBins.end()) << "bin " << k;
+    const detail::RoundCompleteness rest = detail::withoutFragments(c);
+    EXPECT_EQ(rest.missing, c.missing - static_cast<int>(c.fragmentBins.size()));
+    EXPECT_EQ(rest.missingBins.size(), c.missingBins.size() - c.fragmentBins.size());
+    EXPECT_EQ(rest.shallow, c.shallow - c.fragmentShallow);
+    for (const int k : rest.missingBins) EXPECT_FALSE(inArc(binAngle(k), 0.0)) << "bin " << k;
+
+    // The seabed of one colour with 2 % noise; the fragment blue.
+    const cv::Vec3d seabed(3000, 4000, 5000), blue(40000, 15000, 7000);
+    cv::Mat image(960, 1280, CV_16UC3);
+    cv::RNG rng(7);
+    for (int y = 0; y < image.rows; ++y)
+        for (int x = 0; x < image.cols; ++x) {
+            const double n = 1.0 + 0.02 * rng.gaussian(1.0);
+            const cv::Vec3d v = (fragmentAt(cv::Point2d(x, y)) ? blue : seabed) * n;
+            image.at<cv::Vec3w>(y, x) = cv::Vec3w(cv::saturate_cast<std::uint16_t>(v[0]),
+                                                  cv::saturate_cast<std::uint16_t>(v[1]),
+                                                  cv::saturate_cast<std::uint16_t>(v[2]));
+        }
+    const auto colourAt = [&](const cv::Point2d& px) {
+        return cv::Vec3d(image.at<cv::Vec3w>(static_cast<int>(std::lround(px.y)), static_cast<int>(std::lround(px.x))));
+    };
+    EXPECT_TRUE(detail::foreignAtMissing(camera, fit, c, colourAt, probe, 4.0, 0.1, std::nullopt, 0.5))
+        << "the fragment's colour beyond its bins";
+    EXPECT_FALSE(detail::foreignAtMissing(camera, fit, rest, colourAt, probe, 4.0, 0.1, std::nullopt, 0.5))
+        << "its bins explained: the background beyond the other arc";
+}
+
 // A yellow duck (a composite type: no model can check a union) with a gold
 // sphere in front of its edge in the right image: two colours well inside their
 // own filters are two targets, not one object split between filters. The
