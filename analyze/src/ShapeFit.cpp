@@ -295,9 +295,11 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         // two masks put the boundary up to two pixels either side).
         bool ownOn = false, ownIn = false, ownDeep = false;
         const cv::Point2d onPx = toPixel(pointOn(fit.ideal, t, 0.0));
+        const cv::Point2d inPx = toPixel(pointOn(fit.ideal, t, 0.75));
+        const cv::Point2d deepPx = toPixel(pointOn(fit.ideal, t, 1.75));
         const EdgeKind on = probe(onPx, ownOn);
-        const EdgeKind in = probe(toPixel(pointOn(fit.ideal, t, 0.75)), ownIn);
-        const EdgeKind deep = probe(toPixel(pointOn(fit.ideal, t, 1.75)), ownDeep);
+        const EdgeKind in = probe(inPx, ownIn);
+        const EdgeKind deep = probe(deepPx, ownDeep);
         if (on == EdgeKind::ImageEdge || on == EdgeKind::WindowEdge) ++c.cut;
         // At another target, the mixed pixels of the seam pass neither
         // filter: the nearer one's own pixels may begin a pixel further in.
@@ -320,8 +322,11 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
             // Where the probes meet a fragment: on the ellipse, inside it
             // (the probes above) or within 2 px outside it.
             const std::size_t before = c.fragmentPx.size();
-            for (const double d : {1.75, 0.75, 0.0, -1.0, -2.0}) {
-                const cv::Point2d px = toPixel(pointOn(fit.ideal, t, d));
+            if (deep == EdgeKind::Fragment) c.fragmentPx.push_back(deepPx);
+            if (in == EdgeKind::Fragment) c.fragmentPx.push_back(inPx);
+            if (on == EdgeKind::Fragment) c.fragmentPx.push_back(onPx);
+            for (const double d : {1.0, 2.0}) {
+                const cv::Point2d px = toPixel(pointOn(fit.ideal, t, -d));
                 bool own = false;
                 if (probe(px, own) == EdgeKind::Fragment) c.fragmentPx.push_back(px);
             }
