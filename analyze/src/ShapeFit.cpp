@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <numeric>
 
 namespace avatar::detail {
@@ -890,6 +891,20 @@ bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv
     for (const EllipseFit& part : parts.parts)
         if (part.ok && EllipseFrame(part.ideal).distance(ideal) <= thresholdPx) return true;
     return false;
+}
+
+std::optional<cv::Rect2d> partsExtent(const CameraIntrinsics& camera, const PartsFit& parts,
+                                      const Silhouette& silhouette, double thresholdPx) {
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+    for (const OutlinePoint& p : silhouette.outline) {
+        if (!withinParts(camera, parts, p.px, thresholdPx)) continue;
+        x0 = std::min(x0, p.px.x);
+        x1 = std::max(x1, p.px.x);
+        y0 = std::min(y0, p.px.y);
+        y1 = std::max(y1, p.px.y);
+    }
+    if (!(x0 <= x1)) return std::nullopt;
+    return cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
 }
 
 double shareOutsideParts(const CameraIntrinsics& camera, const PartsFit& parts, const Silhouette& silhouette,

@@ -179,6 +179,13 @@ int nearestPart(const CameraIntrinsics& camera, const PartsFit& parts, const cv:
 /// pixels) outside, the ellipse of some part of @p parts.
 bool withinParts(const CameraIntrinsics& camera, const PartsFit& parts, const cv::Point2d& px, double thresholdPx);
 
+/// The box (image pixels) of @p silhouette's outline points that lie within
+/// @p thresholdPx of some part of @p parts: a composite's extent without
+/// the outline no part explains (a beak's mixed pixels that pass the body's
+/// filter in one view and not the other). Null when no point is explained.
+std::optional<cv::Rect2d> partsExtent(const CameraIntrinsics& camera, const PartsFit& parts,
+                                      const Silhouette& silhouette, double thresholdPx);
+
 /// The share of @p silhouette's own pixels (its labels) that lie outside
 /// every part of @p parts that has an ellipse, each part grown by
 /// @p growPx: what the round parts do not explain (a beak; a neighbour of
