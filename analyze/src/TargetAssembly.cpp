@@ -91,6 +91,9 @@ struct ViewVerdict {
     RoundCompleteness round; ///< of that ellipse
     PartsFit parts;          ///< a composite's round parts
     double strayShare{0.0};  ///< of a composite's pixels, outside its parts
+    bool extraPart{false};   ///< a composite's outline has a round part more than its type, as large as one
+    int extraPoints{0};      ///< the outline points of a part more than its type's (any size), for the log
+    cv::Size2f extraSize;    ///< and its ellipse's size
     bool roundFits{false};  ///< a complete ellipse
     /// The ellipse is known well enough to locate the target by its model,
     /// complete or not: most of it is supported and the rest follows it.
@@ -1007,8 +1010,24 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         } else if (composite) {
             // Each round part is checked as a round target is, except that
             // its outline may run inside the other part (present bins).
+            // One round part more is looked for: the outline the type's
+            // parts leave may follow a circle of its own, as large as a part
+            // of it is (two touching ducks: one's body and the other's, both
+            // heads left over). A small one is a corner of the beak.
             v.parts = fitRoundParts(camera, sil, limits_.minFitThresholdPx, limits_.partThresholdPx,
-                                    limits_.compositeParts, limits_.minPartSided);
+                                    limits_.compositeParts + 1, limits_.minPartSided);
+            const auto typeParts = static_cast<std::size_t>(limits_.compositeParts);
+            if (v.parts.parts.size() > typeParts) {
+                const auto diameter = [](const EllipseFit& p) { return 0.5 * (p.ideal.size.width + p.ideal.size.height); };
+                const EllipseFit& extra = v.parts.parts.back();
+                const auto points = static_cast<double>(v.parts.outlines.back().size());
+                v.extraPart = diameter(extra) >= limits_.minExtraPartRatio * diameter(v.parts.parts.front()) &&
+                              points >= limits_.minPartCoverage * M_PI * diameter(extra);
+                v.extraPoints = static_cast<int>(points);
+                v.extraSize = extra.ideal.size;
+                v.parts.parts.resize(typeParts);
+                v.parts.outlines.resize(typeParts);
+            }
             // The body: the part most of the outline follows (a short arc
             // of another part may fit a larger circle as well as its own).
             const int body = !v.parts.parts.empty() && v.parts.parts[0].ok ? 0 : -1;
@@ -1102,7 +1121,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     v.contactOffBody = true;
                     break;
                 }
-            v.merged = v.strayShare > limits_.maxStrayShare;
+            v.merged = v.strayShare > limits_.maxStrayShare || v.extraPart;
             v.hidden = !v.merged && partHidden;
             if (v.hidden && fragments && !partHiddenButFragments) {  // as for a round target
                 v.hidden = false;
@@ -1467,7 +1486,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                    << sil.fragmentPoints;
             if (composite)
                 stream << ", parts " << v.parts.parts.size() << " of " << v.parts.points << " points, stray outside "
-                       << v.parts.outside << " inside " << v.parts.inside << ", share outside " << v.strayShare;
+                       << v.parts.outside << " inside " << v.parts.inside << ", share outside " << v.strayShare
+                       << (v.extraPart ? ", a part more" : v.extraPoints > 0 ? ", a small part more" : "");
+            if (composite && v.extraPoints > 0 && !v.parts.parts.empty())
+                stream << " (" << v.extraPoints << " points, " << v.extraSize << " against " << v.parts.parts[0].ideal.size << ")";
             if (round || composite)
                 stream << ", fit " << (v.fit.ok ? "" : "failed ") << "rms " << v.fit.rmsPx << " bins "
                        << v.round.bins << " supported " << v.round.supported << " present " << v.round.present

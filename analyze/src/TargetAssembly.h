@@ -128,6 +128,12 @@ struct CompletenessLimits {
     /// Largest share of a composite's pixels its parts may leave
     /// unexplained (a duck's beak that the filter passes in part).
     double maxStrayShare{0.04};
+    /// A round part more than the type has, at least this share of the
+    /// body's diameter and covering minPartCoverage of its circle, is
+    /// another object of its colour run into it: `merged` (two touching
+    /// ducks, whose other head is left over; seed 49). Beak corners fit
+    /// circles of 0.08-0.16 of it.
+    double minExtraPartRatio{0.3};
     /// A composite's other parts (the head) are checked when their outline
     /// covers this share of their circle, and may then miss this share of
     /// it (what a beak covers).

@@ -1515,6 +1515,36 @@ TEST(ShapeModel, ADuckIsPlacedByItsBodyAndABoxOrTwoDucksOfItsColourAreNotWhole) 
     }
 }
 
+// Two small ducks touching at 2 m, the one behind hidden in part: their
+// outline is one's body and the other's (two parts of the type's two), and
+// the heads left over are too little of the silhouette for the stray share.
+// The heads' circles are a part more than the type has, as large as a part
+// of it: `merged`, what the feature is (without that, the other duck read
+// as what hides this one: `occluded` only; seed 49 had such a pair whole).
+TEST(ShapeModel, TwoSmallTouchingDucksAreMergedByThePartTheyHaveMore) {
+    const double r = 22.0;
+    const AvatarConfig cfg = config(TargetShape::Composite);
+    for (const double yaw : {M_PI / 2, M_PI}) {
+        render::Scene two = emptyLab();
+        auto front = target("front", render::Shape::Duck, {-40, 20, 2000}, r);
+        front.om = {0.0, yaw, 0.0};
+        auto behind = target("behind", render::Shape::Duck, front.centreMm + cv::Vec3d(1.1 * r, 0.2 * r, 40.0), r);
+        behind.om = front.om;
+        two.targets = {front, behind};
+        const Outcome o = run(two, cfg);
+        ASSERT_TRUE(o.truth.target("front").left.visibility == render::TargetVisibility::Full &&
+                    o.truth.target("behind").left.occluded)
+            << "the front duck must hide part of the other in the left view";
+        ASSERT_EQ(o.stereoCount(), 1) << "the two ducks must make one feature";
+        for (const VisionTarget& v : o.result.targets) {
+            if (v.flags & kTargetStereo) {
+                EXPECT_TRUE((v.flags & kTargetMerged) && !(v.flags & kTargetWhole))
+                    << "yaw " << yaw << ": " << targetFlagsText(v.flags);
+            }
+        }
+    }
+}
+
 // Small spheres far away (23 mm at 1.95-2.15 m: about 12 px of radius) are
 // placed by their model, not by their centroids: the filter loses up to a
 // pixel of a lit sphere's dim limb, which elongates so small a cone by more
