@@ -1378,8 +1378,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // by the outline they explain: its beak's edge, another colour's
         // mixed pixels, passes its filter in one view and not the other and
         // widens one box alone by a few pixels (whole ducks at 1.8-2.4 m,
-        // 15-20 % wider in one view, seeds 30, 31 and 45). A part hidden is
-        // the parts' bins' to see, a neighbour run in their stray share's.
+        // 15-21 % wider in one view, seeds 30, 31, 45, 46, 54 and 59). A
+        // part hidden is the parts' bins' to see, a neighbour run in their
+        // stray share's.
         const bool byParts = composite && views[0].roundFits && views[1].roundFits;
         const auto extent = [&](int s, const cv::Rect& box) {
             const CameraIntrinsics& camera = s == 0 ? config_.stereo.left : config_.stereo.right;
