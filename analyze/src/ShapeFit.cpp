@@ -168,10 +168,12 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
     // sphere's limb in shadow, where the filter leaves notches a pixel or
     // two deep, they pulled the ellipse towards the lamp (docs/accuracy.md,
     // "The thirteenth round").
+    std::vector<bool> rim;  // no second object beyond the ellipse (OutlinePoint::rim)
     for (const OutlinePoint& p : outline)
         if (p.kind == EdgeKind::Free && !p.wall) {
             normalised.push_back(normalizePixel(camera, p.px));
             variances.push_back(p.sigmaPx * p.sigmaPx);
+            rim.push_back(p.rim);
         }
     fit.points = static_cast<int>(normalised.size());
     if (fit.points < 10) return fit;
@@ -225,7 +227,7 @@ EllipseFit fitEllipse(const CameraIntrinsics& camera, const std::vector<OutlineP
             inlierVariances.push_back(variances[i]);
         } else if (r[i] > 0.0) {
             ++fit.excessPoints;
-            fit.farExcessPoints += r[i] > kExcessPx;
+            fit.farExcessPoints += r[i] > kExcessPx && !rim[i];
         } else {
             ++fit.deficitPoints;
         }
@@ -346,7 +348,7 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
     if (!contacts.empty() && excess > 0) {
         excess = 0;
         for (const OutlinePoint& p : outline) {
-            if (p.kind != EdgeKind::Free || p.wall) continue;  // the points fitEllipse() counted
+            if (p.kind != EdgeKind::Free || p.wall || p.rim) continue;  // the points fitEllipse() counted
             const cv::Point2d n = normalizePixel(camera, p.px);
             const cv::Point2f ideal(static_cast<float>(n.x * f), static_cast<float>(n.y * f));
             const double outside = frame.distance(ideal);

@@ -41,7 +41,7 @@ struct EllipseFit {
     double thresholdPx{0.0};    ///< the inlier limit used
     int points{0}, inliers{0};
     int excessPoints{0};        ///< free points outside the ellipse beyond the limit
-    int farExcessPoints{0};     ///< of them, those more than a pixel outside
+    int farExcessPoints{0};     ///< of them, those more than a pixel outside (rim points aside)
     int deficitPoints{0};       ///< free points inside it beyond the limit
     /// Covariance of the ellipse's parameters (centre x, y and semi-axes in
     /// ideal pixels, angle in rad; @p ideal's order and axes) from the

@@ -723,7 +723,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         /// outline; the notch's floor, looked out of, places the outline.
         bool wall{false};
     };
-    const auto samplesAt = [&](int x, int y, const Direction& d) {
+    const auto samplesAt = [&](int x, int y, const Direction& d, bool rim) {
         EdgeSamples s;
         const int tx = -d.dy, ty = d.dx;  // along the edge
         cv::Vec3f t(0, 0, 0);
@@ -741,7 +741,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
             const int ls = label(sx, sy);
             const auto i = static_cast<std::size_t>(k + 1);
             s.wall = s.wall || (k >= 1 && ls == kFeature);
-            s.unmixed[i] = ls == kFeature || ls == kBackground || ls == kOutside;
+            s.unmixed[i] = ls == kFeature || ls == kBackground || ls == kOutside || (rim && ls == kFragment);
             if (s.unmixed[i]) s.colours[i] = cv::Vec3d(colour(sx, sy));
         }
         return s;
@@ -806,6 +806,28 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
         u.ok = true;
         return u;
     };
+    // Whether the fragment beyond own pixel (x, y) is a rim: across the
+    // outline, at most three pixels of fragment, then background. Across is
+    // the outline's normal (away from the feature's pixels in the 5x5 around,
+    // to the nearest of eight directions), not the pixel edge's direction,
+    // which runs along the rim where the outline is steep; three, because a
+    // rim two pixels deep is crossed in up to three steps of a direction
+    // 22.5 deg off its normal.
+    const auto rimAt = [&](int x, int y) {
+        cv::Point2d n(0.0, 0.0);
+        for (int j = -2; j <= 2; ++j)
+            for (int i = -2; i <= 2; ++i)
+                if (label(x + i, y + j) != kFeature) n += cv::Point2d(i, j);
+        if (n.x == 0.0 && n.y == 0.0) return false;
+        const double sector = std::round(std::atan2(n.y, n.x) / (M_PI / 4.0)) * (M_PI / 4.0);
+        const int sx = static_cast<int>(std::lround(std::cos(sector))), sy = static_cast<int>(std::lround(std::sin(sector)));
+        for (int k = 1; k <= 4; ++k) {
+            const int l = label(x + k * sx, y + k * sy);
+            if (l == kBackground || l == kOutside) return true;
+            if (l != kFragment) return false;
+        }
+        return false;
+    };
     std::vector<std::uint8_t> edges(static_cast<std::size_t>(roi.width));
     for (int y = 0; y < roi.height; ++y) {
         // Most of the feature's pixels are inside: only its edge pixels are looked at.
@@ -843,18 +865,23 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     ++out.contactPoints;
                     continue;
                 }
-                if (lq == kFragment) {
+                // A rim (rimAt): the edge's own mixed pixels, where their colour
+                // passes another filter (a yellow's edge over a green seabed
+                // under water passes orange's); the outline is there, found
+                // as at a free edge with the rim's pixels unmixed.
+                const bool rim = lq == kFragment && rimAt(x, y);
+                if (lq == kFragment && !rim) {
                     out.outline.push_back({mid, EdgeKind::Fragment, 0.0});
                     ++out.fragmentPoints;
                     continue;
                 }
                 ++out.freePoints;
                 if (!subPixel) {
-                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0), false, rim});
                     freeEdges.push_back({mid, 1.0 / 12.0});
                     continue;
                 }
-                const EdgeSamples samples = samplesAt(x, y, d);
+                const EdgeSamples samples = samplesAt(x, y, d, rim);
                 cv::Vec3d background;
                 backgroundAt(x, y, d, 3, background);
                 Unmixed u = unmix(samples, background);
@@ -864,7 +891,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     // edge's 1/12 px^2 tripled the covariance of a marker's
                     // centroid at 0.64 m in data/sessions/lab).
                     const double variance = u.ok ? u.edgeVar : 1.0 / 12.0;
-                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(variance), true});
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(variance), true, rim});
                     freeEdges.push_back({mid, variance});
                     continue;
                 }
@@ -890,7 +917,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                     }
                 }
                 if (!u.ok) {
-                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0)});
+                    out.outline.push_back({mid, EdgeKind::Free, std::sqrt(1.0 / 12.0), false, rim});
                     freeEdges.push_back({mid, 1.0 / 12.0});
                     continue;
                 }
@@ -898,7 +925,7 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 const double e = std::clamp(sum - 1.5, -0.5, 2.5);
                 const double delta = e - 0.5;  // outwards from the mask's edge
                 const cv::Point2d p(roi.x + x + e * d.dx, roi.y + y + e * d.dy);
-                out.outline.push_back({p, EdgeKind::Free, std::sqrt(edgeVar)});
+                out.outline.push_back({p, EdgeKind::Free, std::sqrt(edgeVar), false, rim});
                 addedArea += delta;
                 const double along = 0.5 + 0.5 * delta;
                 addedX += delta * (roi.x + x + along * d.dx);

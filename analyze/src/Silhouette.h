@@ -11,7 +11,10 @@
 ///   used; the filter may stop up to two pixels short of it); a notch's
 ///   side walls, which look along the outline, keep their pixel edge;
 /// - what is beyond each part of the edge: free background, the image edge,
-///   the search window's edge, or another target's pixels (contact);
+///   the search window's edge, or another target's pixels (contact); a rim
+///   of fragment pixels at most about two pixels deep across the outline,
+///   background beyond, is the edge's own mixed pixels passing another
+///   filter, and the edge there is free;
 /// - how well the centroid is known: the noise of the colour at the edge,
 ///   measured inside the target, divided by the edge's contrast.
 
@@ -47,6 +50,11 @@ struct OutlinePoint {
     /// where the outline is to within the notch's depth, which is enough to
     /// say that part of the outline is there, not to fit the outline to it.
     bool wall{false};
+    /// A free edge found through a rim of another filter's pixels (the
+    /// edge's own mixed pixels passing it, Silhouette.h's header): placed as
+    /// any free edge, but what it says beyond the outline is less sure, so a
+    /// rim point well outside the fitted ellipse is no second object.
+    bool rim{false};
 };
 
 struct Silhouette {
