@@ -820,7 +820,8 @@ Silhouette measureSilhouette(const ImageWork& work, std::size_t ownIndex, const 
                 if (label(x + i, y + j) != kFeature) n += cv::Point2d(i, j);
         if (n.x == 0.0 && n.y == 0.0) return false;
         const double sector = std::round(std::atan2(n.y, n.x) / (M_PI / 4.0)) * (M_PI / 4.0);
-        const int sx = static_cast<int>(std::lround(std::cos(sector))), sy = static_cast<int>(std::lround(std::sin(sector)));
+        const int sx = static_cast<int>(std::lround(std::cos(sector)));
+        const int sy = static_cast<int>(std::lround(std::sin(sector)));
         for (int k = 1; k <= 4; ++k) {
             const int l = label(x + k * sx, y + k * sy);
             if (l == kBackground || l == kOutside) return true;
