@@ -136,6 +136,26 @@ Feature soleFeature(ImageWork& w, const cv::Mat& mask) {
     return feature;
 }
 
+// A 160x160 16-bit image of a circle of @p target's colour (B, G, R) on
+// @p seabed's: each pixel's exact coverage (8x8 samples), blurred over three
+// pixels as the demosaic and optics blur an edge.
+cv::Mat blurredCircle(const cv::Point2d& centre, double radius, const cv::Vec3d& target, const cv::Vec3d& seabed) {
+    cv::Mat exact(160, 160, CV_64FC3);
+    for (int y = 0; y < exact.rows; ++y)
+        for (int x = 0; x < exact.cols; ++x) {
+            int inside = 0;
+            for (int sy = 0; sy < 8; ++sy)
+                for (int sx = 0; sx < 8; ++sx)
+                    inside += cv::norm(cv::Point2d(x - 0.5 + (sx + 0.5) / 8, y - 0.5 + (sy + 0.5) / 8) - centre) < radius;
+            const double a = inside / 64.0;
+            exact.at<cv::Vec3d>(y, x) = target * a + seabed * (1.0 - a);
+        }
+    cv::Mat mixed, out;
+    cv::blur(exact, mixed, cv::Size(3, 3), cv::Point(-1, -1), cv::BORDER_REPLICATE);
+    mixed.convertTo(out, CV_16UC3);
+    return out;
+}
+
 // The silhouette's fills against cv::floodFill (no tolerance, no mask) as a
 // brute-force reference: random blobs of four labels, views into a larger
 // image, both connectivities, seeds anywhere (on the value filled or not).
@@ -961,21 +981,9 @@ TEST(Silhouette, TheOutlineIsTheEdgeWhereTheMaskStopsShortOrIsNotched) {
     const cv::Point2d centre(80.3, 79.6);
     const double radius = 30.0;
     const cv::Vec3d target(2000, 18000, 40000), seabed(9000, 10000, 9000);  // B, G, R
-    cv::Mat exact(160, 160, CV_64FC3);
-    for (int y = 0; y < exact.rows; ++y)
-        for (int x = 0; x < exact.cols; ++x) {
-            int inside = 0;
-            for (int sy = 0; sy < 8; ++sy)
-                for (int sx = 0; sx < 8; ++sx)
-                    inside += cv::norm(cv::Point2d(x - 0.5 + (sx + 0.5) / 8, y - 0.5 + (sy + 0.5) / 8) - centre) < radius;
-            const double a = inside / 64.0;
-            exact.at<cv::Vec3d>(y, x) = target * a + seabed * (1.0 - a);
-        }
-    cv::Mat mixed;
-    cv::blur(exact, mixed, cv::Size(3, 3), cv::Point(-1, -1), cv::BORDER_REPLICATE);
     ImageWork w;
-    mixed.convertTo(w.image, CV_16UC3);
-    cv::Mat mask(exact.size(), CV_8UC1, cv::Scalar(0));
+    w.image = blurredCircle(centre, radius, target, seabed);
+    cv::Mat mask(w.image.size(), CV_8UC1, cv::Scalar(0));
     for (int y = 0; y < mask.rows; ++y)
         for (int x = 0; x < mask.cols; ++x) {
             const cv::Point2d d = cv::Point2d(x, y) - centre;
@@ -1025,21 +1033,9 @@ TEST(Silhouette, ARimOfMixedPixelsThatPassAnotherFilterIsTheOutlinesEdge) {
     const cv::Point2d centre(80.3, 79.6);
     const double radius = 30.0;
     const cv::Vec3d target(2000, 18000, 20000), seabed(9000, 16000, 7000);  // B, G, R
-    cv::Mat exact(160, 160, CV_64FC3);
-    for (int y = 0; y < exact.rows; ++y)
-        for (int x = 0; x < exact.cols; ++x) {
-            int inside = 0;
-            for (int sy = 0; sy < 8; ++sy)
-                for (int sx = 0; sx < 8; ++sx)
-                    inside += cv::norm(cv::Point2d(x - 0.5 + (sx + 0.5) / 8, y - 0.5 + (sy + 0.5) / 8) - centre) < radius;
-            const double a = inside / 64.0;
-            exact.at<cv::Vec3d>(y, x) = target * a + seabed * (1.0 - a);
-        }
-    cv::Mat mixed;
-    cv::blur(exact, mixed, cv::Size(3, 3), cv::Point(-1, -1), cv::BORDER_REPLICATE);
     ImageWork w;
-    mixed.convertTo(w.image, CV_16UC3);
-    cv::Mat own(exact.size(), CV_8UC1, cv::Scalar(0)), other(exact.size(), CV_8UC1, cv::Scalar(0));
+    w.image = blurredCircle(centre, radius, target, seabed);
+    cv::Mat own(w.image.size(), CV_8UC1, cv::Scalar(0)), other(w.image.size(), CV_8UC1, cv::Scalar(0));
     const auto inTab = [&](const cv::Point2d& d) { return d.x > 0.0 && std::abs(d.y) < 3.0; };
     for (int y = 0; y < own.rows; ++y)
         for (int x = 0; x < own.cols; ++x) {
