@@ -491,10 +491,9 @@ std::vector<bool> TargetAssembler::typesNear(const cv::Vec3f& bgr, int depth, in
     return detail::typesNear(config_.targets.targets, bgr, depth, bitDepth, limits_.typeMarginLog);
 }
 
-bool TargetAssembler::undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const {
-    const std::vector<bool> nearTypes = typesNear(bgr, depth, bitDepth);
-    for (std::size_t t = 0; t < nearTypes.size(); ++t)
-        if (t != own && nearTypes[t]) return true;
+std::vector<bool> TargetAssembler::rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const {
+    std::vector<bool> out = typesNear(bgr, depth, bitDepth);
+    if (own < out.size()) out[own] = false;
     // Another type's colour in thicker haze than its filter takes (a yellow
     // duck in haze lies where orange's ranges reach, seed 34 of the trust
     // report: taken for a whole orange sphere).
@@ -505,12 +504,17 @@ bool TargetAssembler::undecided(const cv::Vec3f& bgr, std::size_t own, int depth
                                depth == CV_16U ? bitDepth : 8);
     const std::vector<std::vector<ColorTest>>& tests = configured ? hazeTests_ : other;
     const double full = fullScale(depth, depth == CV_16U ? bitDepth : 8);
-    for (std::size_t t = 0; t < tests.size(); ++t) {
-        if (t == own || tests[t].empty()) continue;
+    for (std::size_t t = 0; t < tests.size() && t < out.size(); ++t) {
+        if (t == own || out[t] || tests[t].empty()) continue;
         const std::vector<bool> passed = near(tests[t], bgr, full, 0.0);
-        if (passed[0] && !passed[1]) return true;
+        out[t] = passed[0] && !passed[1];
     }
-    return false;
+    return out;
+}
+
+bool TargetAssembler::undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const {
+    const std::vector<bool> r = rivals(bgr, own, depth, bitDepth);
+    return std::find(r.begin(), r.end(), true) != r.end();
 }
 
 std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFrame& frame, Side side) const {
@@ -689,10 +693,11 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             if (l.type != t) continue;
             const Object& r = right[static_cast<std::size_t>(p.right)];
             const bool conflict = leftUse[static_cast<std::size_t>(p.left)] > 1 || rightUse[static_cast<std::size_t>(p.right)] > 1;
-            Built b = stereoTarget(frame, l, r, p.error, conflict);
+            Built b = stereoTarget(frame, l, r, p.error, conflict, l.type);
             std::vector<Built> split;
             if ((b.target.flags & kTargetMerged) && !conflict) split = splitMerged(frame, l, r, p.error);
-            if (split.empty()) split.push_back(std::move(b));
+            if (split.empty())
+                split.push_back(conflict ? std::move(b) : decideByShape(frame, l, r, p.error, std::move(b)));
             ++group;
             for (Built& one : split) {
                 out.push_back(std::move(one.target));
@@ -906,9 +911,11 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
 }
 
 TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame, const Object& left,
-                                                     const Object& right, double matchError, bool conflict) const {
+                                                     const Object& right, double matchError, bool conflict,
+                                                     std::size_t modelType) const {
     const auto& types = config_.targets.targets;
-    const TargetType& type = types[left.type];
+    const TargetType& type = types[modelType];
+    const TargetType& filter = types[left.type];  // the filter its pixels passed
     Built built;
     VisionTarget& target = built.target;
     target.type = type.name;
@@ -937,10 +944,34 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                            : measureSilhouette(w, static_cast<std::size_t>(-1), o.feature, window,
                                                limits_.centroidCorrelation, o.unionMask);
         const Silhouette& sil = v.silhouette;
-        if (o.unionMask.empty() && undecided(sil.colour, o.type, w.image.depth(), frame.layout.bitDepth))
-            target.flags |= kTargetAmbiguous;
+        if (o.unionMask.empty()) {
+            std::vector<bool>& r = built.rivals[static_cast<std::size_t>(s)];
+            r = rivals(sil.colour, o.type, w.image.depth(), frame.layout.bitDepth);
+            for (std::size_t t = 0; t < r.size(); ++t)
+                if (r[t] && t != modelType) target.flags |= kTargetAmbiguous;
+        }
         v.touchesEdge = sil.imageEdgePoints + sil.windowEdgePoints > 0 || o.feature.touchesBorder;
         if (v.touchesEdge) target.flags |= kTargetAtBorder;
+        const cv::Mat& image = w.image;
+        const auto colourAt = [&image](const cv::Point2d& px) {
+            const int x = std::clamp(static_cast<int>(std::lround(px.x)), 0, image.cols - 1);
+            const int y = std::clamp(static_cast<int>(std::lround(px.y)), 0, image.rows - 1);
+            switch (image.type()) {
+                case CV_16UC3: return cv::Vec3d(image.at<cv::Vec3w>(y, x));
+                case CV_8UC3: return cv::Vec3d(image.at<cv::Vec3b>(y, x));
+                case CV_32FC3: return cv::Vec3d(image.at<cv::Vec3f>(y, x));
+                default: return cv::Vec3d(0, 0, 0);
+            }
+        };
+        // Something in front of a bin short (a stone, a speck of silt) rather
+        // than a dim limb the filter left a bin short of: foreignAtMissing().
+        const auto foreignBeyond = [&](const EllipseFit& fit, const RoundCompleteness& c) {
+            return c.missing > 0 &&
+                   foreignAtMissing(
+                       camera, fit, c, colourAt,
+                       [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
+                       limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour), limits_.minHoleColourLog);
+        };
         if (round) {
             v.fit = fitEllipse(camera, sil.outline, limits_.minFitThresholdPx);
             if (!v.fit.ok) {
@@ -959,26 +990,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // behind silt or a stone, up to 10 mm off, had passed as whole),
             // or a speck brighter than target and background within it, the
             // outline running round it (seed 55: 85 px hidden).
-            const cv::Mat& image = w.image;
-            const auto colourAt = [&image](const cv::Point2d& px) {
-                const int x = std::clamp(static_cast<int>(std::lround(px.x)), 0, image.cols - 1);
-                const int y = std::clamp(static_cast<int>(std::lround(px.y)), 0, image.rows - 1);
-                switch (image.type()) {
-                    case CV_16UC3: return cv::Vec3d(image.at<cv::Vec3w>(y, x));
-                    case CV_8UC3: return cv::Vec3d(image.at<cv::Vec3b>(y, x));
-                    case CV_32FC3: return cv::Vec3d(image.at<cv::Vec3f>(y, x));
-                    default: return cv::Vec3d(0, 0, 0);
-                }
-            };
-            const bool holes = holed(sil, type, limits_);
+            const bool holes = holed(sil, filter, limits_);
             const auto hiddenBy = [&](const RoundCompleteness& c) {
                 if (c.missing > tolerance || v.fit.rmsPx > limits_.maxFitRmsPx || holes) return true;
-                return c.missing > 0 &&
-                       foreignAtMissing(
-                           camera, v.fit, c, colourAt,
-                           [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
-                           limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour),
-                           limits_.minHoleColourLog);
+                return foreignBeyond(v.fit, c);
             };
             v.hidden = hiddenBy(v.round);
             // Hidden only by bins at fragments (another filter's pixels that
@@ -1037,6 +1052,14 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 continue;
             }
             const int tolerance = limits_.maxUnsupportedBins;
+            // Found by its own filter, a composite's holes and what lies
+            // beyond its parts' bins short may be its parts of another
+            // colour (a beak the filter leaves out, inside the outline or
+            // beyond it: whole ducks were hidden so on the trust report's
+            // seeds 11-47). Found by a round type's filter (decided by its
+            // shape: decideByShape()), they are judged as that filter's
+            // round targets are.
+            const bool foreignTells = isRound(filter.shape);
             bool partHidden = false;
             bool partHiddenButFragments = false;  // were the fragments' bins explained
             bool fragments = false;
@@ -1053,7 +1076,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 v.contact = v.contact || c.hidden + c.seam > tolerance;
                 if (static_cast<int>(i) != body) v.contactOffBody = v.contactOffBody || c.hidden + c.seam > 0;
                 const auto hiddenBy = [&](const RoundCompleteness& r) {
-                    if (static_cast<int>(i) == body) return r.missing > tolerance || p.rmsPx > limits_.maxFitRmsPx;
+                    if (static_cast<int>(i) == body)
+                        return r.missing > tolerance || p.rmsPx > limits_.maxFitRmsPx ||
+                               (foreignTells && foreignBeyond(p, r));
                     // Another part (the head) is checked only when enough
                     // of its arc shows to fix its circle; a small part of
                     // its own may cover some of it (the beak). Its misses
@@ -1061,8 +1086,13 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     // short of the circle: a circle fitted on a short arc
                     // may lie a pixel or two outside (whole ducks at 2.3 m
                     // were occluded so, trust_report seeds 56 and 59).
+                    // Found by a round type's filter (foreignTells), the
+                    // head may miss no more than the body, and what lies
+                    // beyond its misses tells: a beak that filter leaves
+                    // out then hides it (a target lost, never a false one).
+                    const double allowed = foreignTells ? tolerance : limits_.maxPartMissing * c.bins;
                     return c.supported >= limits_.minPartCoverage * c.bins &&
-                           r.missing - r.shallow > limits_.maxPartMissing * c.bins;
+                           (r.missing - r.shallow > allowed || (foreignTells && foreignBeyond(p, r)));
                 };
                 partHidden = partHidden || hiddenBy(c);
                 partHiddenButFragments = partHiddenButFragments || hiddenBy(withoutFragments(c));
@@ -1122,8 +1152,9 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     break;
                 }
             v.merged = v.strayShare > limits_.maxStrayShare || v.extraPart;
-            v.hidden = !v.merged && partHidden;
-            if (v.hidden && fragments && !partHiddenButFragments) {  // as for a round target
+            const bool holes = foreignTells && holed(sil, filter, limits_);
+            v.hidden = !v.merged && (partHidden || holes);
+            if (v.hidden && !holes && fragments && !partHiddenButFragments) {  // as for a round target
                 v.hidden = false;
                 v.atFragment = true;
             } else {
@@ -1500,12 +1531,47 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             for (const Silhouette::Hole& h : sil.holes)
                 if (h.areaPx >= limits_.minHolePx)
                     stream << " " << h.areaPx << "/" << h.colourLog << "/" << h.noiseLog << "/"
-                           << holeEvidence(h.offsetLog, h.axisNoiseLog, outsideFilterLog(type, h.ratiosLog));
+                           << holeEvidence(h.offsetLog, h.axisNoiseLog, outsideFilterLog(filter, h.ratiosLog));
             stream << (v.cut ? " CUT" : "") << (v.hidden ? " HIDDEN" : "") << (v.merged ? " MERGED" : "")
                    << (v.contact ? " CONTACT" : "") << (v.atFragment ? " AT-FRAGMENT" : "");
         }
     }
     return built;
+}
+
+// A colour two types may have (a yellow duck in haze where orange's filter
+// reaches, an orange under water where yellow's does) leaves the type to the
+// shape: a silhouette that is not its filter's type's (no sphere's cone nor
+// disc, not two of them; or no duck) yet is wholly the rival's is the
+// rival's. Only between a round model and a composite one, which tell
+// different shapes apart; two round types' shapes are the same.
+TargetAssembler::Built TargetAssembler::decideByShape(const AnalysisFrame& frame, const Object& left,
+                                                      const Object& right, double matchError, Built own) const {
+    constexpr std::uint32_t failed = kTargetOccludedLeft | kTargetOccludedRight | kTargetMerged;
+    const std::uint32_t flags = own.target.flags;
+    if (!(flags & kTargetAmbiguous) || !(flags & failed) || (flags & kTargetCut) || left.type != right.type ||
+        !left.unionMask.empty() || !right.unionMask.empty())
+        return own;
+    const auto& types = config_.targets.targets;
+    const auto modelled = [](TargetShape shape) { return isRound(shape) || shape == TargetShape::Composite; };
+    std::optional<std::size_t> rival;
+    for (std::size_t t = 0; t < types.size(); ++t) {
+        const bool either = (t < own.rivals[0].size() && own.rivals[0][t]) ||
+                            (t < own.rivals[1].size() && own.rivals[1][t]);
+        if (!either) continue;
+        if (rival) return own;  // more than one: the colour cannot narrow it to two
+        rival = t;
+    }
+    if (!rival || !modelled(types[left.type].shape) || !modelled(types[*rival].shape) ||
+        isRound(types[left.type].shape) == isRound(types[*rival].shape))
+        return own;
+    Built other = stereoTarget(frame, left, right, matchError, false, *rival);
+    if (other.target.flags & (failed | kTargetCut | kTargetAmbiguous)) return own;
+    if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+        log.debugStream() << types[left.type].name << " at L " << left.feature.centroid
+                          << ": undecided colour, no " << types[left.type].name << " by its shape but a whole "
+                          << types[*rival].name << ": taken as " << types[*rival].name;
+    return other;
 }
 
 // Two touching spheres of one colour are one feature in each view (merged).

@@ -10,6 +10,10 @@
 ///   two filters when their union is round (or their types have no model):
 ///   it is reported once, under the type that holds most of it, or as
 ///   ambiguous;
+/// - a colour two types may have (undecided) leaves the type to the shape
+///   where one has a round model and the other a composite one: a target
+///   not whole by its filter's type's model but whole by the other's is
+///   the other's (TargetAssembler::decideByShape());
 /// - two touching spheres of one colour (one merged feature in each view)
 ///   are two targets when both views show two sphere cones that pair up in
 ///   space (TargetAssembler::splitMerged()); the farther one is occluded
@@ -260,15 +264,31 @@ private:
         /// Located by the sphere model: its radius; by the composite model:
         /// its body's (a sphere's cone); else 0.
         double sphereRadiusMm{0.0};
+        /// Per view, the types its colour may as well be (rivals()); empty
+        /// for a compound object.
+        std::array<std::vector<bool>, 2> rivals;
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
     std::vector<bool> typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const;
-    /// Whether a colour of type @p own is within the margin of another type's
-    /// filter, or is another type's seen through thicker haze (minHazeShare).
+    /// The types other than @p own whose colour a colour of type @p own may
+    /// as well be: within the margin of their filters, or seen through
+    /// thicker haze than their filters take (minHazeShare).
+    std::vector<bool> rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
+    /// Whether rivals() names any type.
     bool undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
+    /// The stereo target of two objects, judged by the shape model, size
+    /// and name of type @p modelType (their own filter's type, or a rival
+    /// the shape decides for: decideByShape()).
     Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
-                       bool conflict) const;
+                       bool conflict, std::size_t modelType) const;
+    /// @p own (the objects judged as their filter's type) undecided only by
+    /// its colour, and not whole by its type's model: where one rival type
+    /// of the other kind of model (round against composite) explains the
+    /// colour in both views and its model finds the target whole, that
+    /// type's target; otherwise @p own.
+    Built decideByShape(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
+                        Built own) const;
     /// A merged stereo target of a round type as the two spheres it holds,
     /// when both views show them (splitMerged() in TargetAssembly.cpp says
     /// what that takes); empty otherwise (it stays one merged target).

@@ -176,5 +176,91 @@ TEST(VeilScene, TheSpheresATouchingPairSplitsIntoHaveTheirColoursJudged) {
     EXPECT_EQ(second, 1);
 }
 
+// An undecided colour leaves the type to the shape: a green duck (type
+// composite) in the thick haze that puts its colour in teal's box, teal's
+// type a sphere. Teal's model finds no sphere there, green's finds its
+// whole duck: reported once, as a whole green duck placed by its body,
+// where green's veil explains the colour. Without that veil nothing says
+// it is green: teal's, and not whole. A hazy green sphere there stays
+// teal's and ambiguous: teal's model fits it, so the shape decides nothing.
+// A speck of silt in front of the duck, inside its outline, hides it in
+// part: green's model does not find it whole either, and it stays teal's,
+// undecided. (Found by a round type's filter, a duck's holes are judged as
+// that filter's are: hazy ducks 5-6 % hidden by specks were whole green
+// ducks in the trust report's first run of the rule, seeds 42, 55 and 59.
+// Here the speck's hole also leaves its mark on the outline, which green's
+// parts do not explain.)
+VisionTargets analyseHazy(render::Shape shape, bool greenHasVeil, bool speck = false) {
+    AvatarConfig config = greenConfig(false);
+    TargetType teal = config.targets.targets[0];
+    teal.name = "teal";
+    teal.redGreen = {0.25, 0.5};
+    teal.blueGreen = {0.36, 0.7};
+    TargetType& green = config.targets.targets[0];
+    green.shape = TargetShape::Composite;
+    if (greenHasVeil) green.veil = Veil{{0.7, 1.0, 1.0}, 0.05, std::nullopt, std::nullopt};
+    config.targets.targets.push_back(teal);
+    validateConfig(config);
+    render::Scene scene = hazyGreenSphere(2.0);
+    render::TargetSpec& t = scene.targets[0];
+    t.shape = shape;
+    t.om = {0.0, 0.0, 0.3};
+    t.beakAlbedo = t.albedo;  // green all over: the duck's shape alone differs
+    if (speck) {
+        render::Occluder silt;
+        silt.name = "silt";
+        silt.centreMm = (kCentreMm + cv::Point3d(0, 8, 0)) * 0.35;
+        silt.radiusMm = 2.0;
+        silt.albedo = {0.75, 0.75, 0.75};
+        scene.occluders = {silt};
+    }
+    render::RenderOptions options;
+    options.seed = 3;
+    const render::RenderResult r = render::render(scene, config.stereo, options);
+    AnalyzeStereoImagePair analysis(config);
+    return analysis.analyze(r.pair, 1);
+}
+
+TEST(VeilScene, AnUndecidedColourIsTheTypeWhoseModelItsShapeFits) {
+    struct Case {
+        render::Shape shape;
+        bool veil;
+        bool speck;
+        const char* type;
+        bool whole;
+        ShapeModel model;
+    };
+    for (const Case& c : {Case{render::Shape::Duck, true, false, "green", true, ShapeModel::Composite},
+                          Case{render::Shape::Duck, false, false, "teal", false, ShapeModel::None},
+                          Case{render::Shape::Sphere, true, false, "teal", false, ShapeModel::Sphere},
+                          Case{render::Shape::Duck, true, true, "teal", false, ShapeModel::None}}) {
+        const std::string what = std::string(c.shape == render::Shape::Duck ? "duck" : "sphere") +
+                                 (c.veil ? ", green with a veil" : ", green without") + (c.speck ? ", a speck" : "");
+        int stereo = 0;
+        for (const VisionTarget& v : analyseHazy(c.shape, c.veil, c.speck).targets) {
+            if (!(v.flags & kTargetStereo)) continue;
+            ++stereo;
+            EXPECT_EQ(v.type, c.type) << what;
+            EXPECT_EQ(static_cast<bool>(v.flags & kTargetWhole), c.whole) << what << ": flags " << v.flags;
+            if (c.whole) {
+                EXPECT_EQ(v.model, c.model) << what;
+                EXPECT_FALSE(v.flags & kTargetAmbiguous) << what;
+                ASSERT_TRUE(v.positionVisionMm);
+                EXPECT_LT(cv::norm(*v.positionVisionMm - kCentreMm), 5.0) << what;  // the body's centre
+            } else {
+                EXPECT_TRUE(v.flags & (kTargetAmbiguous | kTargetMerged | kTargetOccludedLeft | kTargetOccludedRight))
+                    << what << ": flags " << v.flags;
+                if (c.shape == render::Shape::Sphere) {
+                    EXPECT_EQ(v.model, c.model) << what;
+                }
+                if (c.speck) {
+                    EXPECT_TRUE(v.flags & kTargetAmbiguous) << what << ": its shape decides nothing";
+                }
+            }
+        }
+        EXPECT_EQ(stereo, 1) << what;
+    }
+}
+
 }  // namespace
 }  // namespace avatar
