@@ -282,11 +282,11 @@ private:
     /// the shape decides for: decideByShape()).
     Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
                        bool conflict, std::size_t modelType) const;
-    /// @p own (the objects judged as their filter's type) undecided only by
-    /// its colour, and not whole by its type's model: where one rival type
-    /// of the other kind of model (round against composite) explains the
-    /// colour in both views and its model finds the target whole, that
-    /// type's target; otherwise @p own.
+    /// @p own (the objects judged as their filter's type), undecided by its
+    /// colour and merged or occluded by its type's model: where its colour
+    /// leaves one rival type in all (either view's rivals()), with the other
+    /// kind of model (round against composite), and that model finds the
+    /// target whole, that type's target; otherwise @p own.
     Built decideByShape(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
                         Built own) const;
     /// A merged stereo target of a round type as the two spheres it holds,
