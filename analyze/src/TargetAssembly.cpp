@@ -1053,7 +1053,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             }
             const int tolerance = limits_.maxUnsupportedBins;
             // Found by its own filter, a composite's holes and what lies
-            // beyond its parts' bins short may be its parts of another
+            // beyond its body's bins short may be its parts of another
             // colour (a beak the filter leaves out, inside the outline or
             // beyond it: whole ducks were hidden so on the trust report's
             // seeds 11-47). Found by a round type's filter (decided by its
@@ -1086,13 +1086,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     // short of the circle: a circle fitted on a short arc
                     // may lie a pixel or two outside (whole ducks at 2.3 m
                     // were occluded so, trust_report seeds 56 and 59).
-                    // Found by a round type's filter (foreignTells), the
-                    // head may miss no more than the body, and what lies
-                    // beyond its misses tells: a beak that filter leaves
-                    // out then hides it (a target lost, never a false one).
-                    const double allowed = foreignTells ? tolerance : limits_.maxPartMissing * c.bins;
                     return c.supported >= limits_.minPartCoverage * c.bins &&
-                           (r.missing - r.shallow > allowed || (foreignTells && foreignBeyond(p, r)));
+                           r.missing - r.shallow > limits_.maxPartMissing * c.bins;
                 };
                 partHidden = partHidden || hiddenBy(c);
                 partHiddenButFragments = partHiddenButFragments || hiddenBy(withoutFragments(c));
