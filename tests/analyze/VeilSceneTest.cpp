@@ -93,16 +93,25 @@ TEST(VeilScene, WithTheVeilItIsWholeWhereItIsAndNothingElseIsReported) {
 // twice as thick as above (R/G ~0.33, B/G ~0.45: a share of ~0.25 of the
 // veil) while green's own veil stops at a share of 0.05, and its filter's
 // margin (0.1 in log) at B/G 0.32.
-VisionTargets analyseAsTeal(bool greenHasVeil) {
+/// Green (of @p greenShape, with a veil up to a share of 0.05 when
+/// @p greenHasVeil) and a "teal" sphere type whose ranges take green in the
+/// thick haze of hazyGreenSphere(2.0).
+AvatarConfig greenAndTeal(bool greenHasVeil, TargetShape greenShape) {
     AvatarConfig config = greenConfig(false);
     TargetType teal = config.targets.targets[0];
     teal.name = "teal";
     teal.redGreen = {0.25, 0.5};
     teal.blueGreen = {0.36, 0.7};
     TargetType& green = config.targets.targets[0];
+    green.shape = greenShape;
     if (greenHasVeil) green.veil = Veil{{0.7, 1.0, 1.0}, 0.05, std::nullopt, std::nullopt};
     config.targets.targets.push_back(teal);
     validateConfig(config);
+    return config;
+}
+
+VisionTargets analyseAsTeal(bool greenHasVeil) {
+    const AvatarConfig config = greenAndTeal(greenHasVeil, TargetShape::Sphere);
     render::RenderOptions options;
     options.seed = 3;
     const render::RenderResult r = render::render(hazyGreenSphere(2.0), config.stereo, options);
@@ -191,16 +200,7 @@ TEST(VeilScene, TheSpheresATouchingPairSplitsIntoHaveTheirColoursJudged) {
 // Here the speck's hole also leaves its mark on the outline, which green's
 // parts do not explain.)
 VisionTargets analyseHazy(render::Shape shape, bool greenHasVeil, bool speck = false) {
-    AvatarConfig config = greenConfig(false);
-    TargetType teal = config.targets.targets[0];
-    teal.name = "teal";
-    teal.redGreen = {0.25, 0.5};
-    teal.blueGreen = {0.36, 0.7};
-    TargetType& green = config.targets.targets[0];
-    green.shape = TargetShape::Composite;
-    if (greenHasVeil) green.veil = Veil{{0.7, 1.0, 1.0}, 0.05, std::nullopt, std::nullopt};
-    config.targets.targets.push_back(teal);
-    validateConfig(config);
+    const AvatarConfig config = greenAndTeal(greenHasVeil, TargetShape::Composite);
     render::Scene scene = hazyGreenSphere(2.0);
     render::TargetSpec& t = scene.targets[0];
     t.shape = shape;
