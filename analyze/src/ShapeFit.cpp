@@ -322,6 +322,7 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
             ++c.missing;
             c.shallow += ownDeep;
             c.missingBins.push_back(k);
+            if (ownDeep) c.shallowBins.push_back(k);
             // Where the probes meet a fragment: on the ellipse, inside it
             // (the probes above) or within 2 px outside it.
             const std::size_t before = c.fragmentPx.size();
@@ -369,17 +370,28 @@ RoundCompleteness withoutFragments(const RoundCompleteness& c) {
     rest.shallow -= c.fragmentShallow;
     rest.fragmentShallow = 0;
     rest.fragmentPx.clear();
+    const auto atFragment = [&](int k) {
+        return std::find(c.fragmentBins.begin(), c.fragmentBins.end(), k) != c.fragmentBins.end();
+    };
     rest.missingBins.clear();
     for (const int k : c.missingBins)
-        if (std::find(c.fragmentBins.begin(), c.fragmentBins.end(), k) == c.fragmentBins.end())
-            rest.missingBins.push_back(k);
+        if (!atFragment(k)) rest.missingBins.push_back(k);
+    rest.shallowBins.clear();
+    for (const int k : c.shallowBins)
+        if (!atFragment(k)) rest.shallowBins.push_back(k);
     return rest;
 }
 
 bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
                       const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
-                      double factor, double minLog, const std::optional<cv::Vec3d>& target, double insideLog) {
+                      double factor, double minLog, const std::optional<cv::Vec3d>& target, double insideLog,
+                      bool deepOnly) {
     if (!fit.ok || c.missingBins.empty() || c.bins <= 0) return false;
+    std::vector<int> judged;
+    for (const int k : c.missingBins)
+        if (!deepOnly || std::find(c.shallowBins.begin(), c.shallowBins.end(), k) == c.shallowBins.end())
+            judged.push_back(k);
+    if (judged.empty()) return false;
     const auto angleOf = [&](int k) { return -CV_PI + (k + 0.5) * 2.0 * CV_PI / c.bins; };
     const double f = camera.fc[0];
     const auto toPixel = [&](const cv::Point2d& idealPx) {
@@ -427,7 +439,7 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
         std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
         spread[ch] = 1.4826 * v[v.size() / 2];
     }
-    for (const int k : c.missingBins) {
+    for (const int k : judged) {
         if (const auto v = outside(angleOf(k)))
             for (int ch = 0; ch < 3; ++ch) {
                 // Chromaticity either way; brightness only above the background's.
@@ -437,7 +449,7 @@ bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, con
     }
     if (!target) return false;
     const double above = std::max(median[2], meanLog(*target)) + std::max(insideLog, factor * spread[2]);
-    for (const int k : c.missingBins) {
+    for (const int k : judged) {
         int bright = 0;
         for (const double d : {0.5, 1.5, 2.5, 3.5, 4.5}) {
             const cv::Point2d px = toPixel(pointOn(fit.ideal, angleOf(k), d));

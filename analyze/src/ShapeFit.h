@@ -78,6 +78,7 @@ struct RoundCompleteness {
     /// on a short arc may be.
     int shallow{0};
     std::vector<int> missingBins;  ///< which bins are missing (bin k spans angle parameters -pi + [k, k + 1) 2 pi / bins)
+    std::vector<int> shallowBins;  ///< which of missingBins are shallow
     /// The missing bins at a fragment (pixels of a filter that are no
     /// feature's) on the ellipse or within 2 px either side of it: what is
     /// there may be an object behind the target or in front of it, which
@@ -125,10 +126,15 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
 /// of the outline there (a speck of silt whose mixed rim the filter cut
 /// open, so that the outline runs round it inside). What mixes the target's
 /// colour with the background's, or dims it, is not that bright.
+///
+/// With @p deepOnly, only the missing bins that are not shallow are judged
+/// (every missing bin still stays out of the background's sample): where a
+/// circle fitted on a short arc runs a pixel or two outside the silhouette,
+/// what lies beyond is the silhouette's own mixed rim, not what hides it.
 bool foreignAtMissing(const CameraIntrinsics& camera, const EllipseFit& fit, const RoundCompleteness& c,
                       const std::function<cv::Vec3d(const cv::Point2d&)>& colourAt, const PixelProbe& probe,
                       double factor, double minLog, const std::optional<cv::Vec3d>& target = std::nullopt,
-                      double insideLog = 0.5);
+                      double insideLog = 0.5, bool deepOnly = false);
 
 /// The number of concavities of a silhouette's outline deeper than
 /// @p minDepthPx whose deepest point borders free background (not another

@@ -965,12 +965,13 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         };
         // Something in front of a bin short (a stone, a speck of silt) rather
         // than a dim limb the filter left a bin short of: foreignAtMissing().
-        const auto foreignBeyond = [&](const EllipseFit& fit, const RoundCompleteness& c) {
+        const auto foreignBeyond = [&](const EllipseFit& fit, const RoundCompleteness& c, bool deepOnly = false) {
             return c.missing > 0 &&
                    foreignAtMissing(
                        camera, fit, c, colourAt,
                        [&](const cv::Point2d& px, bool& own) { return sil.probe(px, w.image.size(), window, own); },
-                       limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour), limits_.minHoleColourLog);
+                       limits_.foreignFactor, limits_.minForeignLog, cv::Vec3d(sil.colour), limits_.minHoleColourLog,
+                       deepOnly);
         };
         if (round) {
             v.fit = fitEllipse(camera, sil.outline, limits_.minFitThresholdPx);
@@ -1086,8 +1087,13 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     // short of the circle: a circle fitted on a short arc
                     // may lie a pixel or two outside (whole ducks at 2.3 m
                     // were occluded so, trust_report seeds 56 and 59).
+                    // Found by a round type's filter (foreignTells), what
+                    // lies beyond its misses tells, but for those within
+                    // 1.75 px of the circle: the mixed rim where head and
+                    // body meet lies there.
                     return c.supported >= limits_.minPartCoverage * c.bins &&
-                           r.missing - r.shallow > limits_.maxPartMissing * c.bins;
+                           (r.missing - r.shallow > limits_.maxPartMissing * c.bins ||
+                            (foreignTells && foreignBeyond(p, r, true)));
                 };
                 partHidden = partHidden || hiddenBy(c);
                 partHiddenButFragments = partHiddenButFragments || hiddenBy(withoutFragments(c));
