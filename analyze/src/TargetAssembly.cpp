@@ -453,6 +453,27 @@ std::vector<std::vector<ColorTest>> hazeTests(const std::vector<TargetType>& typ
     return out;
 }
 
+/// A composite's head (its second round part, a sphere's cone in both
+/// views) from its body placed at @p body with radius @p bodyRadiusMm: the
+/// distance between their centres over the sum of their radii (a duck's
+/// head sinks into its body: 0.6; two spheres that touch: 1). None when a
+/// view shows no such head.
+std::optional<double> partSeparation(const StereoCoordinateCalculator& calculator, const ViewVerdict (&views)[2],
+                                     const StereoPoint& body, double bodyRadiusMm) {
+    std::optional<SphereCone> heads[2];
+    for (int s = 0; s < 2; ++s) {
+        const PartsFit& parts = views[s].parts;
+        if (parts.parts.size() < 2 || !parts.parts[1].ok) return std::nullopt;
+        heads[s] = sphereCone(parts.parts[1].conic);
+        if (!heads[s]) return std::nullopt;
+    }
+    const auto head = calculator.triangulateNormalized(heads[0]->axis, heads[1]->axis);
+    if (!head) return std::nullopt;
+    const double headRadiusMm = 0.5 * (cv::norm(head->leftMm) * std::sin(heads[0]->halfAngle) +
+                                       cv::norm(head->rightMm) * std::sin(heads[1]->halfAngle));
+    return cv::norm(head->leftMm - body.leftMm) / (bodyRadiusMm + headRadiusMm);
+}
+
 }  // namespace
 
 TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits limits)
@@ -491,9 +512,11 @@ std::vector<bool> TargetAssembler::typesNear(const cv::Vec3f& bgr, int depth, in
     return detail::typesNear(config_.targets.targets, bgr, depth, bitDepth, limits_.typeMarginLog);
 }
 
-std::vector<bool> TargetAssembler::rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const {
+std::vector<bool> TargetAssembler::rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth,
+                                          std::vector<bool>* hazy) const {
     std::vector<bool> out = typesNear(bgr, depth, bitDepth);
     if (own < out.size()) out[own] = false;
+    if (hazy) hazy->assign(out.size(), false);
     // Another type's colour in thicker haze than its filter takes (a yellow
     // duck in haze lies where orange's ranges reach, seed 34 of the trust
     // report: taken for a whole orange sphere).
@@ -505,9 +528,10 @@ std::vector<bool> TargetAssembler::rivals(const cv::Vec3f& bgr, std::size_t own,
     const std::vector<std::vector<ColorTest>>& tests = configured ? hazeTests_ : other;
     const double full = fullScale(depth, depth == CV_16U ? bitDepth : 8);
     for (std::size_t t = 0; t < tests.size() && t < out.size(); ++t) {
-        if (t == own || out[t] || tests[t].empty()) continue;
+        if (t == own || tests[t].empty() || (out[t] && !hazy)) continue;
         const std::vector<bool> passed = near(tests[t], bgr, full, 0.0);
-        out[t] = passed[0] && !passed[1];
+        if (hazy) (*hazy)[t] = passed[0];
+        out[t] = out[t] || (passed[0] && !passed[1]);
     }
     return out;
 }
@@ -694,10 +718,16 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             const Object& r = right[static_cast<std::size_t>(p.right)];
             const bool conflict = leftUse[static_cast<std::size_t>(p.left)] > 1 || rightUse[static_cast<std::size_t>(p.right)] > 1;
             Built b = stereoTarget(frame, l, r, p.error, conflict, l.type);
+            // The shape first: a duck that a round type's filter found may
+            // split into two spheres sunk into each other.
             std::vector<Built> split;
-            if ((b.target.flags & kTargetMerged) && !conflict) split = splitMerged(frame, l, r, p.error);
-            if (split.empty())
-                split.push_back(conflict ? std::move(b) : decideByShape(frame, l, r, p.error, std::move(b)));
+            if (!conflict) {
+                if (std::optional<Built> other = decideByShape(frame, l, r, p.error, b))
+                    split.push_back(std::move(*other));
+                else if (b.target.flags & kTargetMerged)
+                    split = splitMerged(frame, l, r, p.error);
+            }
+            if (split.empty()) split.push_back(std::move(b));
             ++group;
             for (Built& one : split) {
                 out.push_back(std::move(one.target));
@@ -946,7 +976,8 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         const Silhouette& sil = v.silhouette;
         if (o.unionMask.empty()) {
             std::vector<bool>& r = built.rivals[static_cast<std::size_t>(s)];
-            r = rivals(sil.colour, o.type, w.image.depth(), frame.layout.bitDepth);
+            r = rivals(sil.colour, o.type, w.image.depth(), frame.layout.bitDepth,
+                       &built.hazeRivals[static_cast<std::size_t>(s)]);
             for (std::size_t t = 0; t < r.size(); ++t)
                 if (r[t] && t != modelType) target.flags |= kTargetAmbiguous;
         }
@@ -1247,6 +1278,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     model = ShapeModel::Composite;
                     sphereRadiusMm = 0.5 * (rl + rr);  // its body's
                     normalised = true;
+                    built.partSeparation = partSeparation(calculator_, views, *body, sphereRadiusMm);
                 }
             }
         }
@@ -1546,32 +1578,58 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
 // disc, not two of them; or no duck) yet is wholly the rival's is the
 // rival's. Only between a round model and a composite one, which tell
 // different shapes apart; two round types' shapes are the same.
-TargetAssembler::Built TargetAssembler::decideByShape(const AnalysisFrame& frame, const Object& left,
-                                                      const Object& right, double matchError, Built own) const {
+std::optional<TargetAssembler::Built> TargetAssembler::decideByShape(const AnalysisFrame& frame,
+                                                                     const Object& left, const Object& right,
+                                                                     double matchError, const Built& own) const {
     constexpr std::uint32_t failed = kTargetOccludedLeft | kTargetOccludedRight | kTargetMerged;
     const std::uint32_t flags = own.target.flags;
-    if (!(flags & kTargetAmbiguous) || !(flags & failed) || (flags & kTargetCut) || left.type != right.type ||
-        !left.unionMask.empty() || !right.unionMask.empty())
-        return own;
+    if (!(flags & failed) || (flags & kTargetCut) || left.type != right.type || !left.unionMask.empty() ||
+        !right.unionMask.empty())
+        return std::nullopt;
+    // Undecided, the colour names its rivals; decided, a composite type's
+    // colour in thinner haze (hazeRivals: a yellow duck in light haze lies
+    // in orange's box, where oranges under water lie too) is asked only
+    // when the filter's type is round. Either way a duck must show its
+    // head sunk into its body (two touching oranges, which the round model
+    // finds merged, are no duck).
+    const bool undecidedColour = flags & kTargetAmbiguous;
+    const auto& candidates = undecidedColour ? own.rivals : own.hazeRivals;
     const auto& types = config_.targets.targets;
     const auto modelled = [](TargetShape shape) { return isRound(shape) || shape == TargetShape::Composite; };
     std::optional<std::size_t> rival;
     for (std::size_t t = 0; t < types.size(); ++t) {
-        const bool either = (t < own.rivals[0].size() && own.rivals[0][t]) ||
-                            (t < own.rivals[1].size() && own.rivals[1][t]);
+        const bool either = (t < candidates[0].size() && candidates[0][t]) ||
+                            (t < candidates[1].size() && candidates[1][t]);
         if (!either) continue;
-        if (rival) return own;  // more than one: the colour cannot narrow it to two
+        if (rival) return std::nullopt;  // more than one: the colour cannot narrow it to two
         rival = t;
     }
     if (!rival || !modelled(types[left.type].shape) || !modelled(types[*rival].shape) ||
         isRound(types[left.type].shape) == isRound(types[*rival].shape))
-        return own;
+        return std::nullopt;
+    if (!undecidedColour && !isRound(types[left.type].shape)) return std::nullopt;
     Built other = stereoTarget(frame, left, right, matchError, false, *rival);
-    if (other.target.flags & (failed | kTargetCut | kTargetAmbiguous)) return own;
+    if (other.target.flags & (failed | kTargetCut | kTargetAmbiguous)) return std::nullopt;
+    // A duck is told from a sphere only by its head: one round part in a
+    // view may be either (a duck facing the camera, or a sphere the round
+    // model found ragged), so the shape decides for a composite only where
+    // both views show its head, sunk into its body.
+    const std::optional<double> separation = other.partSeparation;
+    if (types[*rival].shape == TargetShape::Composite && (!separation || *separation > limits_.maxPartSeparation)) {
+        if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+            log.debugStream() << types[left.type].name << " at L " << left.feature.centroid << ": a whole "
+                              << types[*rival].name << " by its shape, but its head "
+                              << (separation ? "lies " + std::to_string(*separation) + " of the radii apart"
+                                             : std::string("is not seen in both views"))
+                              << ": stays " << types[left.type].name;
+        return std::nullopt;
+    }
     if (log4cpp::Category& log = logger(); log.isDebugEnabled())
         log.debugStream() << types[left.type].name << " at L " << left.feature.centroid
-                          << ": undecided colour, no " << types[left.type].name << " by its shape but a whole "
-                          << types[*rival].name << ": taken as " << types[*rival].name;
+                          << (undecidedColour ? ": undecided colour" : ": a colour in haze") << ", no "
+                          << types[left.type].name << " by its shape but a whole " << types[*rival].name
+                          << " (head at " << separation.value_or(-1.0) << " of the radii): taken as "
+                          << types[*rival].name;
     return other;
 }
 

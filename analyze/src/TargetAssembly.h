@@ -143,6 +143,11 @@ struct CompletenessLimits {
     /// it (what a beak covers).
     double minPartCoverage{0.25};
     double maxPartMissing{0.15};
+    /// A silhouette that the shape decides is a composite type's
+    /// (decideByShape()) must show the composite's head in both views, sunk
+    /// into its body: their centres at most this share of the sum of their
+    /// radii apart (a duck's 0.6; two touching spheres 1).
+    double maxPartSeparation{0.8};
     /// Two touching spheres of one colour in one feature (merged) are told
     /// apart when each view's outline is two sphere cones (fitRoundParts()
     /// with two parts) that pair up across the views within this RMS
@@ -267,14 +272,25 @@ private:
         /// Per view, the types its colour may as well be (rivals()); empty
         /// for a compound object.
         std::array<std::vector<bool>, 2> rivals;
+        /// Per view, the types with a veil whose colour seen through any
+        /// share of it up to kHazeShareMax (none too) is its colour; empty
+        /// for a compound object.
+        std::array<std::vector<bool>, 2> hazeRivals;
+        /// Located by the composite model with a head in both views: the
+        /// distance between head and body centres over their radii's sum
+        /// (partSeparation() in TargetAssembly.cpp).
+        std::optional<double> partSeparation;
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
     std::vector<bool> typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const;
     /// The types other than @p own whose colour a colour of type @p own may
     /// as well be: within the margin of their filters, or seen through
-    /// thicker haze than their filters take (minHazeShare).
-    std::vector<bool> rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
+    /// thicker haze than their filters take (minHazeShare). With @p hazy,
+    /// also the types whose colour seen through any share of their veil is
+    /// this colour (Built::hazeRivals).
+    std::vector<bool> rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth,
+                             std::vector<bool>* hazy = nullptr) const;
     /// Whether rivals() names any type.
     bool undecided(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth) const;
     /// The stereo target of two objects, judged by the shape model, size
@@ -282,13 +298,16 @@ private:
     /// the shape decides for: decideByShape()).
     Built stereoTarget(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
                        bool conflict, std::size_t modelType) const;
-    /// @p own (the objects judged as their filter's type), undecided by its
-    /// colour and merged or occluded by its type's model: where its colour
-    /// leaves one rival type in all (either view's rivals()), with the other
-    /// kind of model (round against composite), and that model finds the
-    /// target whole, that type's target; otherwise @p own.
-    Built decideByShape(const AnalysisFrame& frame, const Object& left, const Object& right, double matchError,
-                        Built own) const;
+    /// @p own (the objects judged as their filter's type), merged or
+    /// occluded by its type's model, as another type: where its colour
+    /// leaves one rival type in all (either view's rivals() when undecided;
+    /// when decided and its type is round, either view's hazeRivals: a
+    /// composite type), with the other kind of model (round against
+    /// composite), and that model finds the target whole (a composite with
+    /// its head seen in both views, sunk into its body: maxPartSeparation),
+    /// that type's target; otherwise none (@p own stands).
+    std::optional<Built> decideByShape(const AnalysisFrame& frame, const Object& left, const Object& right,
+                                       double matchError, const Built& own) const;
     /// A merged stereo target of a round type as the two spheres it holds,
     /// when both views show them (splitMerged() in TargetAssembly.cpp says
     /// what that takes); empty otherwise (it stays one merged target).

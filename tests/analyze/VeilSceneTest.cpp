@@ -57,13 +57,18 @@ AvatarConfig greenConfig(bool veil) {
     return c;
 }
 
-VisionTargets analyse(bool veil) {
-    const AvatarConfig config = greenConfig(veil);
+/// @p scene rendered (noise seed 3) and analysed with @p config.
+VisionTargets renderAndAnalyse(const render::Scene& scene, const AvatarConfig& config) {
     render::RenderOptions options;
     options.seed = 3;
-    const render::RenderResult r = render::render(hazyGreenSphere(), config.stereo, options);
+    const render::RenderResult r = render::render(scene, config.stereo, options);
     AnalyzeStereoImagePair analysis(config);
     return analysis.analyze(r.pair, 1);
+}
+
+VisionTargets analyse(bool veil) {
+    const AvatarConfig config = greenConfig(veil);
+    return renderAndAnalyse(hazyGreenSphere(), config);
 }
 
 TEST(VeilScene, WithoutTheVeilTheHazySphereIsNotWhole) {
@@ -112,11 +117,7 @@ AvatarConfig greenAndTeal(bool greenHasVeil, TargetShape greenShape) {
 
 VisionTargets analyseAsTeal(bool greenHasVeil) {
     const AvatarConfig config = greenAndTeal(greenHasVeil, TargetShape::Sphere);
-    render::RenderOptions options;
-    options.seed = 3;
-    const render::RenderResult r = render::render(hazyGreenSphere(2.0), config.stereo, options);
-    AnalyzeStereoImagePair analysis(config);
-    return analysis.analyze(r.pair, 1);
+    return renderAndAnalyse(hazyGreenSphere(2.0), config);
 }
 
 TEST(VeilScene, AnotherTypesColourInThickerHazeThanItsFilterPassesIsAmbiguous) {
@@ -164,11 +165,7 @@ TEST(VeilScene, TheSpheresATouchingPairSplitsIntoHaveTheirColoursJudged) {
     other.radiusMm = 25.0;
     other.centreMm = {kCentreMm.x + kRadiusMm + other.radiusMm + 0.01, kCentreMm.y, kCentreMm.z};
     scene.targets.push_back(other);
-    render::RenderOptions options;
-    options.seed = 3;
-    const render::RenderResult r = render::render(scene, config.stereo, options);
-    AnalyzeStereoImagePair analysis(config);
-    const VisionTargets result = analysis.analyze(r.pair, 1);
+    const VisionTargets result = renderAndAnalyse(scene, config);
     const cv::Point3d otherCentre(other.centreMm[0], other.centreMm[1], other.centreMm[2]);
     int first = 0, second = 0;
     for (const VisionTarget& v : result.targets) {
@@ -214,11 +211,7 @@ VisionTargets analyseHazy(render::Shape shape, bool greenHasVeil, bool speck = f
         silt.albedo = {0.75, 0.75, 0.75};
         scene.occluders = {silt};
     }
-    render::RenderOptions options;
-    options.seed = 3;
-    const render::RenderResult r = render::render(scene, config.stereo, options);
-    AnalyzeStereoImagePair analysis(config);
-    return analysis.analyze(r.pair, 1);
+    return renderAndAnalyse(scene, config);
 }
 
 TEST(VeilScene, AnUndecidedColourIsTheTypeWhoseModelItsShapeFits) {
@@ -259,6 +252,76 @@ TEST(VeilScene, AnUndecidedColourIsTheTypeWhoseModelItsShapeFits) {
             }
         }
         EXPECT_EQ(stereo, 1) << what;
+    }
+}
+
+
+// Thinner haze: a green duck's colour just beyond green's veil (a share of
+// 0.01) lies in teal's box and is not undecided (within minHazeShare of
+// green's colour, where other colours under water lie too). Teal's sphere
+// model does not find it whole; green's veil explains the colour, and
+// green's model finds a whole duck whose head sinks into its body: a whole
+// green duck. Two touching green spheres there, the smaller of a duck
+// head's size, are no duck (trust_report: hazy yellow ducks in orange's
+// box at shares under 0.1, 36 on 28 seeds, were never whole).
+VisionTargets analyseLightHaze(bool twoSpheres, double thicker) {
+    AvatarConfig config = greenConfig(false);
+    TargetType& green = config.targets.targets[0];
+    green.blueGreen = {0.18, 0.26};
+    green.shape = TargetShape::Composite;
+    green.veil = Veil{{0.7, 1.0, 1.0}, 0.01, std::nullopt, std::nullopt};
+    TargetType teal = green;
+    teal.name = "teal";
+    teal.shape = TargetShape::Sphere;
+    teal.veil.reset();
+    teal.redGreen = {0.13, 0.5};
+    teal.blueGreen = {0.27, 0.7};
+    config.targets.targets.push_back(teal);
+    validateConfig(config);
+    render::Scene scene = hazyGreenSphere(thicker);
+    render::TargetSpec& t = scene.targets[0];
+    if (twoSpheres) {
+        render::TargetSpec head = t;
+        head.name = "ball2";
+        head.radiusMm = 0.55 * kRadiusMm;
+        head.centreMm = {kCentreMm.x + 0.6 * (kRadiusMm + head.radiusMm) + 0.01,
+                         kCentreMm.y - 0.8 * (kRadiusMm + head.radiusMm), kCentreMm.z};
+        scene.targets.push_back(head);
+    } else {
+        t.shape = render::Shape::Duck;
+        t.om = {0.0, 0.0, 0.3};
+        t.beakAlbedo = t.albedo;
+    }
+    return renderAndAnalyse(scene, config);
+}
+
+TEST(VeilScene, ADuckInThinHazeInARoundTypesBoxIsItsOwnWhenItsHeadSinksIn) {
+    // 0.6: undecided (its colour within 10 % of green's ranges); 0.8:
+    // decided, teal's. Teal's model splits either duck into two spheres
+    // sunk into each other, which the duck's shape is asked before.
+    for (const double thicker : {0.6, 0.8}) {
+        const std::string haze = "haze x" + std::to_string(thicker).substr(0, 3);
+        int stereo = 0;
+        for (const VisionTarget& v : analyseLightHaze(false, thicker).targets) {
+            if (!(v.flags & kTargetStereo)) continue;
+            ++stereo;
+            EXPECT_EQ(v.type, "green") << haze;
+            EXPECT_TRUE(v.flags & kTargetWhole) << haze << ": flags " << v.flags;
+            EXPECT_FALSE(v.flags & kTargetAmbiguous) << haze;
+            EXPECT_EQ(v.model, ShapeModel::Composite) << haze;
+            ASSERT_TRUE(v.positionVisionMm);
+            EXPECT_LT(cv::norm(*v.positionVisionMm - kCentreMm), 5.0) << haze;  // its body's centre: 0.2 mm
+        }
+        EXPECT_EQ(stereo, 1) << haze;
+        // Green's model finds the two spheres a whole duck, but the head's
+        // centre lies a radii's sum from the body's: no green target.
+        stereo = 0;
+        for (const VisionTarget& v : analyseLightHaze(true, thicker).targets) {
+            if (!(v.flags & kTargetStereo)) continue;
+            ++stereo;
+            EXPECT_EQ(v.type, "teal") << haze << ": two spheres";
+        }
+        EXPECT_GE(stereo, 1) << haze << ": two spheres";
     }
 }
 
