@@ -367,14 +367,18 @@ std::vector<ColorTest> nearTests(const std::vector<TargetType>& types, int depth
 /// members' types @p memberTypes) lies behind a target whose disparity
 /// (x_left - x_right) is at least @p minDisparityPx: in front of it, the
 /// object would show in the other view at a larger disparity, within the
-/// match box (dx up to its maximum, dy within its range: the workspace),
-/// and none of its types' filters passes a pixel there. False where that
+/// match box (dx up to its maximum, dy within its range: the workspace).
+/// With @p minPx 0, none of its types' filters may pass a pixel there (a
+/// fragment: too small to count on its shape); otherwise no box of its
+/// size moved by such a disparity may hold @p minPx of their pixels (an
+/// object: it would show whole; other things of its colour, such as a
+/// target's own part of another colour, do not hide it). False where that
 /// stretch is empty or leaves the other image or a type's search window,
 /// or where the other view was searched in regions only (tracking,
 /// coarse-to-fine): it may lie there unseen.
 bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const std::vector<TargetType>& types,
                      const cv::Rect& box, const std::vector<std::size_t>& memberTypes, Side side,
-                     double minDisparityPx) {
+                     double minDisparityPx, double minPx = 0.0) {
     const Side other = side == Side::Left ? Side::Right : Side::Left;
     const ImageWork& w = frame.at(other);
     if (!frame.regions[static_cast<std::size_t>(other)].empty() || w.image.empty()) return false;
@@ -392,12 +396,32 @@ bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const
     const cv::Rect band(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
                         static_cast<int>(std::ceil(x1)) - static_cast<int>(std::floor(x0)) + 1,
                         static_cast<int>(std::ceil(y1)) - static_cast<int>(std::floor(y0)) + 1);
+    cv::Mat colour = cv::Mat::zeros(band.size(), CV_8U);
     for (const std::size_t t : memberTypes) {
         if (t >= w.masks.size() || w.masks[t].empty()) return false;
         const cv::Rect window = searchWindow(types[t], w.image.size());
         if ((band & window) != band) return false;
-        if (cv::countNonZero(w.masks[t](band)) > 0) return false;
+        colour |= w.masks[t](band);
     }
+    if (!(minPx > 0.0)) return cv::countNonZero(colour) == 0;
+    // The box at every whole disparity of the stretch, from the band's
+    // summed-area table.
+    cv::Mat ones, sum;
+    cv::threshold(colour, ones, 0, 1, cv::THRESH_BINARY);
+    cv::integral(ones, sum, CV_32S);
+    const int dx0 = static_cast<int>(std::ceil(dLo)), dx1 = static_cast<int>(std::floor(dHi));
+    const int dy0 = static_cast<int>(std::ceil(match.boxDyMin)), dy1 = static_cast<int>(std::floor(match.boxDyMax));
+    for (int dx = dx0; dx <= dx1; ++dx)
+        for (int dy = dy0; dy <= dy1; ++dy) {
+            // The box's top left in the other image, then in the band.
+            const int x = (side == Side::Right ? box.x + dx : box.x - dx) - band.x;
+            const int y = (side == Side::Right ? box.y + dy : box.y - dy) - band.y;
+            const int xa = std::max(x, 0), ya = std::max(y, 0);
+            const int xb = std::min(x + box.width, band.width), yb = std::min(y + box.height, band.height);
+            if (xb <= xa || yb <= ya) continue;
+            const int n = sum.at<int>(yb, xb) - sum.at<int>(ya, xb) - sum.at<int>(yb, xa) + sum.at<int>(ya, xa);
+            if (n >= minPx) return false;
+        }
     return true;
 }
 
@@ -756,7 +780,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         const std::vector<int>& use = side == 0 ? leftUse : rightUse;
         for (std::size_t o = 0; o < objs.size(); ++o) {
             if (use[o] != 0) continue;
-            Unseen l{objs[o].feature.box, {}};
+            Unseen l{objs[o].feature.box, {}, objs[o].feature.area};
             for (const Member& m : objs[o].members) l.types.push_back(m.type);
             lone[static_cast<std::size_t>(side)].push_back(std::move(l));
         }
@@ -864,9 +888,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 for (const Unseen& l : lone[static_cast<std::size_t>(side)]) {
                     if ((grown(a.box[side], 3) & l.box).empty()) continue;
                     ++touching;
-                    behindLone = behindLone && behindByAbsence(frame, config_.match, config_.targets.targets, l.box,
-                                                               l.types, side == 0 ? Side::Left : Side::Right,
-                                                               disparity);
+                    behindLone = behindLone &&
+                                 behindByAbsence(frame, config_.match, config_.targets.targets, l.box, l.types,
+                                                 side == 0 ? Side::Left : Side::Right, disparity,
+                                                 std::max(1.0, limits_.minLoneShareInOtherView * l.areaPx));
                 }
                 behindLone = behindLone && touching > 0;
                 if (behindLone && logger().isDebugEnabled())

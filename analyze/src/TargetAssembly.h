@@ -171,6 +171,15 @@ struct CompletenessLimits {
     /// Each sphere is fitted on its outline points at least this far (px)
     /// outside the other's circle (the waist's mixed pixels bend both).
     double splitWaistPx{3.0};
+    /// An object one view alone shows, touching a target there, lies
+    /// behind it when the other view, at every disparity larger than the
+    /// target's within the match box, shows less than this share of the
+    /// object's area of its colour in a box of the object's size: in
+    /// front, it would show there whole. (Any pixel of its colour in that
+    /// stretch, which spans the workspace's depths and so often holds
+    /// something else of its colour, had occluded three whole targets on
+    /// 28 seeds of trust_report.)
+    double minLoneShareInOtherView{0.5};
 };
 
 /// How far a colour (natural log of R/G and of B/G) lies outside each of
@@ -252,6 +261,7 @@ private:
     struct Unseen {
         cv::Rect box;
         std::vector<std::size_t> types;
+        int areaPx{0};  ///< its pixels (an object's; 0 for a fragment)
     };
     /// A stereo target, and in which views it touches another target (which
     /// only the depths of the targets it touches can judge).

@@ -1847,7 +1847,8 @@ TEST(Completeness, TheTypesSizeTellsTwoTouchingDucksFromOne) {
 // gold is: it is behind, and the duck is whole (it was occluded-right; a
 // red sphere in front of a magenta disc so, trust_report seed 50). With a
 // gold disc in that stretch of the left view nothing can be told, and the
-// duck stays occluded there.
+// duck stays occluded there; with a speck of gold there, too small to be
+// the disc, it is whole.
 TEST(Completeness, ATargetTouchingOnlyAnObjectBehindItThatTheOtherViewLacksIsWhole) {
     render::Scene scene = emptyLab();
     auto duck = target("duck", render::Shape::Duck, {0, 0, 800}, 40);
@@ -1876,6 +1877,19 @@ TEST(Completeness, ATargetTouchingOnlyAnObjectBehindItThatTheOtherViewLacksIsWho
     const auto k2 = with.of("duck");
     ASSERT_TRUE(k2);
     EXPECT_TRUE((k2->flags & kTargetOccludedRight) && !(k2->flags & kTargetWhole)) << flagsOf(k2);
+
+    // A small gold sphere there instead, of less than half the area the
+    // disc shows in the right view: the disc, were it nearer, would show
+    // there whole, so the sphere does not stand for it. The duck is whole.
+    scene.targets.back() = target("speck", render::Shape::Sphere, {200, 0, 1200}, 4, kGold, "arm_marker");
+    const Outcome speck = run(scene, cfg);
+    const render::TargetTruth& st = speck.truth.target("speck");
+    ASSERT_TRUE(st.left.visibility == render::TargetVisibility::Full && st.left.areaPx >= 20.0 &&
+                st.left.areaPx < 0.5 * speck.truth.target("disc").right.areaPx)
+        << st.left.areaPx;
+    const auto k3 = speck.of("duck");
+    ASSERT_TRUE(k3);
+    EXPECT_TRUE(k3->flags & kTargetWhole) << flagsOf(k3);
 }
 
 // A duck (a composite type: no model checks its outline) whose head is
