@@ -982,8 +982,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const bool round = declared == TargetShape::Sphere || declared == TargetShape::Disc;
     const bool composite = declared == TargetShape::Composite;
     if (left.typeShare < left.minShare || right.typeShare < right.minShare || left.type != right.type ||
-        conflict)
+        conflict) {
         target.flags |= kTargetAmbiguous;
+        built.ambiguousNotByColour = true;  // not its colour: its fragments or its match
+    }
 
     ViewVerdict views[2];
     const Object* objs[2] = {&left, &right};
@@ -1319,6 +1321,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
     const auto oneRoundPart = [](const ViewVerdict& v) { return v.modelUsable && v.roundParts == 1; };
     if (composite && model != ShapeModel::Composite && oneRoundPart(views[0]) && oneRoundPart(views[1])) {
         target.flags |= kTargetAmbiguous;
+        built.ambiguousNotByColour = true;
         logger().debug(type.name + ": one round part in both views, and no sphere's: not its composite");
     }
     for (int s = 0; s < 2; ++s) {
@@ -1505,7 +1508,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                         major(views[1].fit) * dr / config_.stereo.right.fc[0]);
     }
     if (type.sizeMm && sizeMm > type.sizeMm->max) target.flags |= kTargetMerged;
-    if (type.sizeMm && sizeMm < type.sizeMm->min) target.flags |= kTargetAmbiguous;
+    if (type.sizeMm && sizeMm < type.sizeMm->min) {
+        target.flags |= kTargetAmbiguous;
+        built.ambiguousNotByColour = true;
+    }
     // Epipolar tangency: the epipolar planes that touch a rigid object's top
     // and bottom are the same for both cameras, so its two silhouettes must
     // reach the same rectified rows. A view that stops short at either end
@@ -1608,9 +1614,9 @@ std::optional<TargetAssembler::Built> TargetAssembler::decideByShape(const Analy
                                                                      double matchError, const Built& own) const {
     constexpr std::uint32_t failed = kTargetOccludedLeft | kTargetOccludedRight | kTargetMerged;
     const std::uint32_t flags = own.target.flags;
-    if (!(flags & failed) || (flags & kTargetCut) || left.type != right.type || !left.unionMask.empty() ||
-        !right.unionMask.empty())
+    if ((flags & kTargetCut) || left.type != right.type || !left.unionMask.empty() || !right.unionMask.empty())
         return std::nullopt;
+    if (!(flags & failed)) return decideForOwn(frame, left, right, matchError, own);
     // Undecided, the colour names its rivals; decided, a composite type's
     // colour in thinner haze (hazeRivals: a yellow duck in light haze lies
     // in orange's box, where oranges under water lie too) is asked only
@@ -1656,6 +1662,58 @@ std::optional<TargetAssembler::Built> TargetAssembler::decideByShape(const Analy
                           << " (head at " << separation.value_or(-1.0) << " of the radii): taken as "
                           << types[*rival].name;
     return other;
+}
+
+// The other way round: a target whole by its filter's type's model but for
+// its colour, which one rival type with the other kind of model may have,
+// is its own type's when its own model's evidence is positive (a round
+// model placed it in both views; a composite's head shows in both, sunk
+// into its body) and the rival's model rejects its shape (an orange disc
+// seen aslant under water is no yellow duck, one ellipse no sphere makes;
+// a yellow duck with its head in view is no orange sphere). A sphere's
+// outline decides nothing: a duck facing the camera shows one too.
+std::optional<TargetAssembler::Built> TargetAssembler::decideForOwn(const AnalysisFrame& frame, const Object& left,
+                                                                    const Object& right, double matchError,
+                                                                    const Built& own) const {
+    if (!(own.target.flags & kTargetAmbiguous) || own.ambiguousNotByColour) return std::nullopt;
+    const auto& types = config_.targets.targets;
+    std::optional<std::size_t> rival;
+    for (std::size_t t = 0; t < types.size(); ++t) {
+        const bool either = (t < own.rivals[0].size() && own.rivals[0][t]) ||
+                            (t < own.rivals[1].size() && own.rivals[1][t]);
+        if (!either) continue;
+        if (rival) return std::nullopt;
+        rival = t;
+    }
+    if (!rival) return std::nullopt;
+    const TargetShape mine = types[left.type].shape, theirs = types[*rival].shape;
+    const bool roundMine = isRound(mine) && theirs == TargetShape::Composite;
+    const bool compositeMine = mine == TargetShape::Composite && isRound(theirs);
+    if (roundMine && own.target.model != ShapeModel::Sphere && own.target.model != ShapeModel::Disc)
+        return std::nullopt;
+    if (compositeMine && !(own.partSeparation && *own.partSeparation <= limits_.maxPartSeparation))
+        return std::nullopt;
+    if (!roundMine && !compositeMine) return std::nullopt;
+    // What rejects a shape: for a round rival (which cannot follow a
+    // duck's two parts), merged or hidden; for a composite rival, merged,
+    // not its composite (one round part, no sphere's) or smaller than its
+    // type's size range. Not a composite rival that only places no body:
+    // its checks find a sphere's outline two parts with a piece missing
+    // too, and taking that as a rejection gained a false whole (a disc's
+    // 2.7 px sliver its own model did not see, trust_report seed 56).
+    const Built other = stereoTarget(frame, left, right, matchError, false, *rival);
+    const std::uint32_t rejected =
+        kTargetMerged | (compositeMine ? kTargetOccludedLeft | kTargetOccludedRight : 0u);
+    if ((other.target.flags & kTargetCut) || !((other.target.flags & rejected) || other.ambiguousNotByColour))
+        return std::nullopt;
+    Built decided = own;
+    decided.target.flags &= ~static_cast<std::uint32_t>(kTargetAmbiguous);
+    if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+        log.debugStream() << types[left.type].name << " at L " << left.feature.centroid
+                          << ": undecided colour, a whole " << types[left.type].name << " by its shape and no "
+                          << types[*rival].name << " (" << targetFlagsText(other.target.flags)
+                          << (other.ambiguousNotByColour ? ", not its shape" : "") << "): decided";
+    return decided;
 }
 
 // Two touching spheres of one colour are one feature in each view (merged).

@@ -290,6 +290,9 @@ private:
         /// distance between head and body centres over their radii's sum
         /// (partSeparation() in TargetAssembly.cpp).
         std::optional<double> partSeparation;
+        /// `ambiguous` for a reason other than its colour's rivals: its
+        /// fragments' types, its match, its shape or size.
+        bool ambiguousNotByColour{false};
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
@@ -318,6 +321,15 @@ private:
     /// that type's target; otherwise none (@p own stands).
     std::optional<Built> decideByShape(const AnalysisFrame& frame, const Object& left, const Object& right,
                                        double matchError, const Built& own) const;
+    /// @p own whole by its type's model but `ambiguous` for its colour
+    /// alone, with one rival type of the other kind of model: its own
+    /// type's, no longer ambiguous, where its model's evidence is positive
+    /// (a round model placed it; a composite's head shows in both views,
+    /// sunk into its body) and the rival's model finds it merged, not its
+    /// shape or size (Built::ambiguousNotByColour), or, a round rival,
+    /// occluded; otherwise none.
+    std::optional<Built> decideForOwn(const AnalysisFrame& frame, const Object& left, const Object& right,
+                                      double matchError, const Built& own) const;
     /// A merged stereo target of a round type as the two spheres it holds,
     /// when both views show them (splitMerged() in TargetAssembly.cpp says
     /// what that takes); empty otherwise (it stays one merged target).
