@@ -318,7 +318,8 @@ private:
     /// composite type), with the other kind of model (round against
     /// composite), and that model finds the target whole (a composite with
     /// its head seen in both views, sunk into its body: maxPartSeparation),
-    /// that type's target; otherwise none (@p own stands).
+    /// that type's target. Neither merged nor occluded, decideForOwn().
+    /// Otherwise none (@p own stands).
     std::optional<Built> decideByShape(const AnalysisFrame& frame, const Object& left, const Object& right,
                                        double matchError, const Built& own) const;
     /// @p own whole by its type's model but `ambiguous` for its colour
