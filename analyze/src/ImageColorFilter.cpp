@@ -605,7 +605,7 @@ bool ratioRowErased(const float* b, const float* g, const float* r, std::uint8_t
         return false;
     }
     bool any = Kernel(b, g, r, out, n, segments[0]);
-    // Segments hold disjoint brightness intervals: at most one passes a pixel.
+    // Segments hold disjoint brightness intervals, but for a water's ranges.
     for (std::size_t k = 1; k < segments.size(); ++k) {
         if (!Kernel(b, g, r, scratch, n, segments[k])) continue;
         any = true;
@@ -696,9 +696,45 @@ RatioLimits<T> ratioLimits(const Range& rg, const Range& rb, const Range& bg, do
     return lim;
 }
 
+/// @p x moved outward (down for a minimum, up for a maximum) to a multiple
+/// of 1/q, q the power of two with 24 < q x <= 48: a fraction whose nearest
+/// neighbours of 16-bit samples lie far enough for the float test to be
+/// exact (limitIsExact: q x below 64), at most 4.2 % further; x itself when
+/// that multiple would be 0.
+double roundOutward(double x, Bound bound) {
+    if (!(x > 0.0) || x >= kOpenMax) return x;
+    const double q = std::exp2(std::floor(std::log2(48.0 / x)));
+    const double p = bound == Bound::Lower ? std::floor(x * q) : std::ceil(x * q);
+    return p > 0.0 ? p / q : x;
+}
+
+/// The ranges a type's water adds (TargetConfig.h, Water): the water's
+/// ranges (the type's by default) with each ratio's far end moved by the
+/// water over its longest path (R/G by exp(-(k_R - k_G) L), B/G by
+/// exp(-(k_B - k_G) L)) and rounded outward (roundOutward: so that the
+/// water does not take a type whose limits float tests exactly to double
+/// precision, twice as slow); R/B open.
+TargetType waterRanges(const TargetType& type) {
+    const Water& w = *type.water;
+    const auto through = [&](Range r, double dk) {
+        const double f = std::exp(-dk * w.maxPathM);
+        if (f < 1.0) r.min = roundOutward(r.min * f, Bound::Lower);
+        else if (f > 1.0 && r.max < kOpenMax) r.max = std::min(roundOutward(r.max * f, Bound::Upper), kOpenMax);
+        return r;
+    };
+    TargetType out = type;
+    out.water.reset();
+    out.veil.reset();
+    out.redGreen = through(w.redGreen.value_or(type.redGreen), w.attenuationPerM[0] - w.attenuationPerM[1]);
+    out.blueGreen = through(w.blueGreen.value_or(type.blueGreen), w.attenuationPerM[2] - w.attenuationPerM[1]);
+    out.redBlue = {0.0, 1e9};
+    return out;
+}
+
 /// The segments of an RGB-ratio type: each band on its integer brightness
 /// interval, and the type's own ranges on the intervals between bands, all
-/// within the type's brightness range.
+/// within the type's brightness range; with a water, its ranges over the
+/// whole brightness range too (a water goes with no bands).
 template <typename T>
 std::vector<RatioLimits<T>> ratioSegments(const TargetType& type, std::uint32_t n) {
     const double sumMax = 3.0 * n;
@@ -723,6 +759,10 @@ std::vector<RatioLimits<T>> ratioSegments(const TargetType& type, std::uint32_t 
         from = std::max(from, bhi + 1.0);
     }
     own(from, hi);
+    if (type.water && lo <= hi) {
+        const TargetType w = waterRanges(type);
+        out.push_back(ratioLimits<T>(w.redGreen, w.redBlue, w.blueGreen, lo, hi, n));
+    }
     return out;
 }
 
@@ -832,6 +872,10 @@ bool floatIsExact(const TargetType& type, std::uint32_t n) {
     if (type.filter == ColorFilterMethod::Hsv) return ok(type.hsv.saturation);
     for (const BrightnessBand& b : type.brightnessBands)
         if (!ok(b.redGreen) || !ok(b.redBlue) || !ok(b.blueGreen)) return false;
+    if (type.water) {
+        const TargetType w = waterRanges(type);
+        if (!ok(w.redGreen) || !ok(w.blueGreen)) return false;
+    }
     return ok(type.redGreen) && ok(type.redBlue) && ok(type.blueGreen);
 }
 

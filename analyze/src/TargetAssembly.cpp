@@ -467,6 +467,7 @@ std::vector<std::vector<ColorTest>> hazeTests(const std::vector<TargetType>& typ
             t.blueGreen = type.veil->blueGreen.value_or(type.blueGreen);
             t.redBlue = Range{0.0, 1e9};
             t.brightness.reset();
+            t.water.reset();
             for (const double share : {kHazeShareMax, minShare}) {
                 t.veil->maxShare = share;
                 moved.push_back(t);

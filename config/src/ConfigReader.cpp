@@ -435,13 +435,22 @@ Veil readVeil(Reader& r, const XMLElement* el, const std::string& path) {
     return v;
 }
 
+Water readWater(Reader& r, const XMLElement* el, const std::string& path) {
+    const Section s(r, el, path, {"attenuationPerM", "maxPathM", "redGreen", "blueGreen"});
+    Water w{s.get("attenuationPerM", readVector3), s.get("maxPathM", readDouble), std::nullopt, std::nullopt};
+    if (s.has("redGreen")) w.redGreen = s.get("redGreen", readRange);
+    if (s.has("blueGreen")) w.blueGreen = s.get("blueGreen", readRange);
+    return w;
+}
+
 std::vector<BrightnessBand> readBands(Reader& r, const XMLElement* el, const std::string& path) {
     return readList<BrightnessBand>(r, el, path, "band", readBand);
 }
 
 TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) {
     const Section s(r, el, path,
-                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "veil", "hsv", "erodeRestore",
+                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "veil", "water", "hsv",
+                     "erodeRestore",
                      "erodeKernelSize", "area", "aspectRatio", "areaRatio", "window", "shape", "sizeMm"},
                     {"name"});
     TargetType t;
@@ -463,6 +472,9 @@ TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) 
     s.getOptional("brightnessBands", t.brightnessBands, readBands);
     if (s.has("veil")) {
         t.veil = s.get("veil", readVeil);
+    }
+    if (s.has("water")) {
+        t.water = s.get("water", readWater);
     }
     s.getIf(!rgb, "hsv", t.hsv, readHsv, "required when <filter> is hsv");
     s.getOptional("erodeRestore", t.erodeRestore, readBool);

@@ -270,6 +270,17 @@ void validateTarget(const Checker& k, const TargetType& t, const std::string& p)
             k.fail(vp + "/maxShare", "must be above 0 and below 1 (at 1 the veil alone passes), got " +
                                          formatDouble(t.veil->maxShare));
     }
+    if (t.water) {
+        const std::string wp = p + "/water";
+        if (t.filter != ColorFilterMethod::RgbRatio) k.fail(wp, "a water needs <filter> rgb_ratio");
+        if (!t.brightnessBands.empty()) k.fail(wp, "a water cannot be combined with brightness bands");
+        k.allBetween(t.water->attenuationPerM, 0.0, 1000.0, wp + "/attenuationPerM");
+        k.finite(t.water->maxPathM, wp + "/maxPathM");
+        if (t.water->redGreen) k.range(*t.water->redGreen, 0.0, kInf, wp + "/redGreen");
+        if (t.water->blueGreen) k.range(*t.water->blueGreen, 0.0, kInf, wp + "/blueGreen");
+        if (!(t.water->maxPathM > 0.0 && t.water->maxPathM <= 1000.0))
+            k.fail(wp + "/maxPathM", "must be above 0 and at most 1000 m, got " + formatDouble(t.water->maxPathM));
+    }
     // A hue range with min > max wraps through 0.
     k.range(t.hsv.hue, 0.0, 360.0, p + "/hsv/hue", /*ordered=*/false);
     k.range(t.hsv.saturation, 0.0, 1.0, p + "/hsv/saturation");

@@ -113,6 +113,14 @@ void writeTarget(Writer& w, const TargetType& t) {
         if (t.veil->blueGreen) w.range("blueGreen", *t.veil->blueGreen);
         w.close();
     }
+    if (t.water) {
+        w.open("water");
+        w.vector("attenuationPerM", t.water->attenuationPerM);
+        w.number("maxPathM", t.water->maxPathM);
+        if (t.water->redGreen) w.range("redGreen", *t.water->redGreen);
+        if (t.water->blueGreen) w.range("blueGreen", *t.water->blueGreen);
+        w.close();
+    }
     w.open("hsv");
     w.range("hue", t.hsv.hue);
     w.range("saturation", t.hsv.saturation);

@@ -633,6 +633,113 @@ TEST(ColorFilter, AVeilAcceptsTheTypesColourMixedWithItUpToItsShare) {
     EXPECT_EQ(maskValues(filterOne(image, 16, t)), dim);
 }
 
+// An orange target seen through blue-green water: each channel decays as
+// exp(-k L) over the light's path L, so its R/G falls by exp(-0.25 L) and its
+// B/G by exp(-0.04 L), and beyond a metre it leaves its ranges. With the
+// water the type accepts it up to the water's longest path, and through a
+// water that takes only its red as far, and nothing else: not farther, not
+// with a B/G risen or fallen beyond the water's, not green, yellow or the
+// seabed.
+TEST(ColorFilter, AWaterAcceptsTheTypesColourSeenThroughItUpToItsPath) {
+    const std::array<double, 3> orange{0.95, 0.42, 0.05}, attenuation{0.3, 0.05, 0.09};
+    const auto through = [&](const std::array<double, 3>& c, double pathM, double g) {
+        std::array<double, 3> seen{};
+        for (std::size_t i = 0; i < 3; ++i) seen[i] = c[i] * std::exp(-attenuation[i] * pathM);
+        const double k = g / seen[1];
+        return Bgr{static_cast<int>(std::lround(k * seen[2])), static_cast<int>(std::lround(k * seen[1])),
+                   static_cast<int>(std::lround(k * seen[0]))};
+    };
+    std::vector<Bgr> px;
+    std::vector<int> expected;
+    for (double path : {0.0, 1.0, 2.0, 3.0, 3.9}) {
+        px.push_back(through(orange, path, 20000.0));
+        expected.push_back(255);
+    }
+    for (double path : {5.5, 7.0}) {  // beyond the path (the colour lies inside its ranges: 1.3 m beyond)
+        px.push_back(through(orange, path, 20000.0));
+        expected.push_back(0);
+    }
+    for (const std::array<double, 3>& other : {std::array<double, 3>{0.12, 0.6, 0.15}, {0.92, 0.72, 0.04}, {0.55, 0.5, 0.4}})
+        for (double path : {0.0, 2.0, 4.0}) {  // green, yellow, the seabed through the same water
+            px.push_back(through(other, path, 20000.0));
+            expected.push_back(0);
+        }
+    // Beside its way: the orange at 2 m with B/G 45 % up or 40 % down.
+    for (double f : {1.45, 0.6}) {
+        Bgr off = through(orange, 2.0, 20000.0);
+        off.b = static_cast<int>(off.b * f);
+        px.push_back(off);
+        expected.push_back(0);
+    }
+    // A water that absorbs R as this one does and B as G.
+    Bgr redOnly = through(orange, 0.0, 20000.0);
+    redOnly.r = static_cast<int>(std::lround(redOnly.r * std::exp(-0.25 * 3.9)));
+    px.push_back(redOnly);
+    expected.push_back(255);
+    const cv::Mat image = imageOf<std::uint16_t>(px, 1);
+    TargetType t = ratioType({1.9, 2.6}, {0.0, 1e9}, {0.09, 0.15});
+    std::vector<int> without(expected.size(), 0);
+    without[0] = 255;  // only the orange seen through no water
+    EXPECT_EQ(maskValues(filterOne(image, 16, t)), without);
+    t.water = Water{attenuation, 4.0, std::nullopt, std::nullopt};
+    EXPECT_EQ(maskValues(filterOne(image, 16, t)), expected);
+    // Scaled to 8 bits the verdicts are the same.
+    std::vector<Bgr> small = px;
+    for (Bgr& p : small) p = {p.b / 200, p.g / 200, p.r / 200};
+    EXPECT_EQ(maskValues(filterOne(imageOf<std::uint8_t>(small, 1), 8, t)), expected);
+    // The water acts on its own ranges when it has them: a narrower B/G leaves
+    // the orange's way out.
+    t.water->blueGreen = Range{0.145, 0.15};
+    std::vector<int> narrow = without;
+    EXPECT_EQ(maskValues(filterOne(image, 16, t)), narrow);
+    // With a veil too, each adds its own region: the orange mixed with the
+    // veil passes as well, the water's way still does.
+    t.water->blueGreen.reset();
+    t.veil = Veil{{0.7, 1.0, 1.0}, 0.3, std::nullopt, std::nullopt};
+    const double g = 20000.0, kc = 0.8 * g / orange[1], kv = 0.2 * g;
+    px.push_back(Bgr{static_cast<int>(std::lround(kc * orange[2] + kv)), static_cast<int>(std::lround(g)),
+                     static_cast<int>(std::lround(kc * orange[0] + kv * 0.7))});
+    expected.push_back(255);
+    const cv::Mat both = imageOf<std::uint16_t>(px, 1);
+    EXPECT_EQ(maskValues(filterOne(both, 16, t)), expected);
+    t.water.reset();
+    std::vector<int> veilOnly(expected.size(), 0);
+    veilOnly[0] = veilOnly.back() = 255;
+    EXPECT_EQ(maskValues(filterOne(both, 16, t)), veilOnly);
+    // The brightness range still holds.
+    t.water = Water{attenuation, 4.0, std::nullopt, std::nullopt};
+    t.brightness = Range{0.0, 20000.0};
+    EXPECT_EQ(maskValues(filterOne(both, 16, t)), std::vector<int>(expected.size(), 0));
+}
+
+TEST(ColorFilter, AWaterIsValidated) {
+    std::vector<cv::Mat> masks;
+    const cv::Mat image(2, 2, CV_8UC3, cv::Scalar(1, 1, 1));
+    const auto message = [&](const TargetType& t) {
+        try {
+            colorFilterMasks(image, 8, {t}, masks);
+        } catch (const InvalidArgument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    TargetType t = ratioType({1.9, 2.6}, {0.0, 1e9}, {0.09, 0.15});
+    t.water = Water{{0.3, 0.05, 0.09}, 0.0, std::nullopt, std::nullopt};
+    EXPECT_NE(message(t).find("/water/maxPathM: must be above 0 and at most 1000 m, got 0"), std::string::npos)
+        << message(t);
+    t.water->maxPathM = 4.0;
+    t.water->attenuationPerM[0] = std::nan("");
+    EXPECT_NE(message(t).find("/water/attenuationPerM: component 1 must be"), std::string::npos) << message(t);
+    t.water->attenuationPerM[0] = 0.3;
+    t.brightnessBands = {BrightnessBand{{0.0, 200.0}, {1.9, 2.6}, {0.0, 1e9}, {0.09, 0.15}}};
+    EXPECT_NE(message(t).find("/water: a water cannot be combined with brightness bands"), std::string::npos)
+        << message(t);
+    t.brightnessBands.clear();
+    EXPECT_EQ(message(t), "accepted");
+    t.filter = ColorFilterMethod::Hsv;
+    EXPECT_NE(message(t).find("/water: a water needs <filter> rgb_ratio"), std::string::npos) << message(t);
+}
+
 TEST(ColorFilter, AVeilIsValidated) {
     std::vector<cv::Mat> masks;
     const cv::Mat image(2, 2, CV_8UC3, cv::Scalar(1, 1, 1));

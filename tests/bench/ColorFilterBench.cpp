@@ -73,6 +73,21 @@ void BM_ColorFilter16Veil(benchmark::State& state) {
 }
 BENCHMARK(BM_ColorFilter16Veil)->Unit(benchmark::kMillisecond);
 
+/// The same types seen through the site's water (R/G down to exp(-1.2),
+/// B/G to exp(-0.35) of their ranges' minima): one more box of ratio limits.
+void BM_ColorFilter16Water(benchmark::State& state) {
+    const cv::Mat image = makeImage16();
+    auto types = makeTypes();
+    for (auto& t : types) t.water = avatar::Water{{0.24, 0.0, 0.07}, 5.0, std::nullopt, std::nullopt};
+    std::vector<cv::Mat> masks;
+    for (auto _ : state) {
+        avatar::colorFilterMasks(image, 16, types, masks);
+        benchmark::DoNotOptimize(masks.data());
+        benchmark::ClobberMemory();
+    }
+}
+BENCHMARK(BM_ColorFilter16Water)->Unit(benchmark::kMillisecond);
+
 void BM_ColorFilter8(benchmark::State& state) {
     cv::Mat image;
     makeImage16().convertTo(image, CV_8UC3, 1.0 / 257.0);

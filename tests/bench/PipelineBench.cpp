@@ -27,6 +27,7 @@
 //                             the time is the CPU time per pair; counter
 //                             megapixels, per image, for ms per megapixel).
 //   PipelineSerialVeil/<input> the same with a haze's veil on every type.
+//   PipelineSerialWater/<input> the same with the site's water on every type.
 //   Baseline/<input>          plain OpenCV calls, one image after the other.
 //   PipelineVsBaseline/<input> both, interleaved per iteration: the time is the
 //                             chain's; counters give the baseline's median and
@@ -471,13 +472,17 @@ void reportFound(benchmark::State& state, const Found& f) {
     state.counters["features_L"] = f.featuresLeft;
 }
 
-void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel, bool veil = false) {
+void BM_PipelineWith(benchmark::State& state, const std::string& name, bool parallel, bool veil, bool water) {
     const Input& in = input(name);
     AvatarConfig config = in.config;
     // A haze's veil on every type (docs/config.md): the hull's test on the
     // pixels its bounding box passes and the ranges do not.
     if (veil)
         for (TargetType& t : config.targets.targets) t.veil = Veil{{0.7, 1.0, 1.0}, 0.3, std::nullopt, std::nullopt};
+    // The site's water on every type (docs/config.md): one more box of ratio
+    // limits on every pixel.
+    if (water)
+        for (TargetType& t : config.targets.targets) t.water = Water{{0.24, 0.0, 0.07}, 5.0, std::nullopt, std::nullopt};
     AnalyzeStereoImagePair chain(config);
     chain.setParallel(parallel);
     const Found f = found(chain, chain.analyze(in.pair, 0));  // warm-up, and the check
@@ -503,6 +508,10 @@ void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel
     times.report(state);
     state.counters["megapixels"] = in.pair.size().area() / 1e6;  // per image: divide total_ms by it for ms/MP
     reportFound(state, f);
+}
+
+void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel, bool veil = false) {
+    BM_PipelineWith(state, name, parallel, veil, false);
 }
 
 /// The tracking mode (config.analysis.tracking) on one thread: the lab pair
@@ -853,6 +862,10 @@ void registerAll() {
         benchmark::RegisterBenchmark(("PipelineSerialVeil/" + name).c_str(), BM_Pipeline, name, false, true)
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime();
+    benchmark::RegisterBenchmark("PipelineSerialWater/lab_1280x960", BM_PipelineWith, std::string("lab_1280x960"),
+                                 false, false, true)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
     benchmark::RegisterBenchmark("PipelineScaling/lab", BM_PipelineScaling)->Unit(benchmark::kMillisecond);
     for (const std::string name : {"lab_640x480", "lab_1280x960", "lab_2448x2048"})
         benchmark::RegisterBenchmark(("PipelineFresh/" + name).c_str(), BM_PipelineFresh, name)

@@ -325,6 +325,11 @@ const std::vector<BadDocument> kBadDocuments = {
      "t.xml:26: /avatar/targets/target[2]/veil: missing required element <maxShare>"},
     {"veil's share of all", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><veil><colourRgb>0.7 1 1</colourRgb><maxShare>1</maxShare></veil>"}},
      "t.xml:26: /avatar/targets/target[2]/veil/maxShare: must be above 0 and below 1 (at 1 the veil alone passes), got 1"},
+    // The site's water.
+    {"water without a path", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><water><attenuationPerM>0.2 0.03 0.08</attenuationPerM></water>"}},
+     "t.xml:26: /avatar/targets/target[2]/water: missing required element <maxPathM>"},
+    {"water of two channels", {{"<blueGreen><min>0</min><max>0.6</max></blueGreen>", "<blueGreen><min>0</min><max>0.6</max></blueGreen><water><attenuationPerM>0.2 0.03</attenuationPerM><maxPathM>5</maxPathM></water>"}},
+     "t.xml:26: /avatar/targets/target[2]/water/attenuationPerM: expected 3 numbers, got 2"},
 };
 
 class BadDocumentTest : public ::testing::TestWithParam<BadDocument> {};
@@ -457,6 +462,18 @@ const std::vector<BadConfig> kBadConfigs = {
     {"veil's ranges reversed",
      [](AvatarConfig& c) { c.targets.targets[1].veil = Veil{{0.7, 1, 1}, 0.3, Range{2, 1}, std::nullopt}; },
      "<memory>:0: /avatar/targets/target[2]/veil/redGreen: min 2 is above max 1"},
+    {"water on an hsv filter",
+     [](AvatarConfig& c) { c.targets.targets[0].water = Water{{0.2, 0.03, 0.08}, 5.0, std::nullopt, std::nullopt}; },
+     "<memory>:0: /avatar/targets/target[1]/water: a water needs <filter> rgb_ratio"},
+    {"water absorbing less than nothing",
+     [](AvatarConfig& c) { c.targets.targets[1].water = Water{{0.2, -0.03, 0.08}, 5.0, std::nullopt, std::nullopt}; },
+     "<memory>:0: /avatar/targets/target[2]/water/attenuationPerM: component 2 must be between 0 and 1000, got -0.03"},
+    {"water without a path",
+     [](AvatarConfig& c) { c.targets.targets[1].water = Water{{0.2, 0.03, 0.08}, 0.0, std::nullopt, std::nullopt}; },
+     "<memory>:0: /avatar/targets/target[2]/water/maxPathM: must be above 0 and at most 1000 m, got 0"},
+    {"water's ranges reversed",
+     [](AvatarConfig& c) { c.targets.targets[1].water = Water{{0.2, 0.03, 0.08}, 5.0, std::nullopt, Range{0.3, 0.2}}; },
+     "<memory>:0: /avatar/targets/target[2]/water/blueGreen: min 0.3 is above max 0.2"},
     {"hue above 360", [](AvatarConfig& c) { c.targets.targets[0].hsv.hue.max = 400; },
      "<memory>:0: /avatar/targets/target[1]/hsv/hue/max: must be between 0 and 360, got 400"},
     {"saturation reversed", [](AvatarConfig& c) { c.targets.targets[0].hsv.saturation = {0.9, 0.1}; },

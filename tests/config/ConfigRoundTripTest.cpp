@@ -180,6 +180,12 @@ std::vector<Mutation> mutations() {
     add("target[2].veil with its own ranges", [](AvatarConfig& c) {
         c.targets.targets[1].veil = Veil{{0.7, 1.0, 0.97}, 0.35, Range{0.125, 0.25}, Range{0.2, 0.3}};
     });
+    add("target[2].water set", [](AvatarConfig& c) {
+        c.targets.targets[1].water = Water{{0.2, 0.03, 0.08}, 5.0, std::nullopt, std::nullopt};
+    });
+    add("target[2].water with its own ranges", [](AvatarConfig& c) {
+        c.targets.targets[1].water = Water{{0.2, 0.03, 0.08}, 4.5, Range{0.125, 0.25}, Range{0.2, 0.3}};
+    });
     hsv("hue", &HsvRanges::hue);
     hsv("saturation", &HsvRanges::saturation);
     hsv("value", &HsvRanges::value);

@@ -33,6 +33,13 @@ std::string veilText(const Veil& v) {
     return buf;
 }
 
+std::string waterText(const Water& w) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "k R:G:B %g:%g:%g /m up to %g m", w.attenuationPerM[0], w.attenuationPerM[1],
+                  w.attenuationPerM[2], w.maxPathM);
+    return buf;
+}
+
 void printConfig(const AvatarConfig& c, std::ostream& out) {
     const auto& cam = c.camera;
     out << "camera:   " << cam.width << "x" << cam.height << ", " << cam.bitDepth << "-bit, "
@@ -65,6 +72,7 @@ void printConfig(const AvatarConfig& c, std::ostream& out) {
                           rangeText(t.blueGreen)
                     : std::string("hsv"))
             << (t.veil ? ", veil " + veilText(*t.veil) : std::string())
+            << (t.water ? ", water " + waterText(*t.water) : std::string())
             << ", area " << rangeText(t.area) << " px" << (t.erodeRestore ? ", erode+restore" : "")
             << "\n";
     }

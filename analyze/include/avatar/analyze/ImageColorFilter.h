@@ -48,7 +48,10 @@ namespace avatar {
 /// with R+G+B in its brightness range: first the hull's bounding box with
 /// the exact ratio test above (its limits widened by 1e-5, so float rounding
 /// never cuts the hull), then the hull's edges in single precision (points
-/// within rounding of an edge may fall either way).
+/// within rounding of an edge may fall either way). A type with a water
+/// (TargetConfig.h, Water) passes the same way (exactly) the pixels its
+/// water's ranges pass with each ratio's far end moved by the water over its
+/// longest path, R/B unchecked, within its brightness range.
 ///
 /// HSV filter: hue in degrees [0, 360) (a range with min > max wraps through 0),
 /// saturation and value in [0, 1] relative to the image's full scale, as

@@ -101,6 +101,32 @@ struct Veil {
     }
 };
 
+/// The water a target's colour may be seen through (thesis 3.6.1): it absorbs
+/// each channel c as exp(-k_c L) over the light's path L (lamp -> target ->
+/// camera, about twice the range with the lamps beside the cameras), red
+/// first in blue-green water, so a target's R/G is scaled by
+/// exp(-(k_R - k_G) L) and its B/G by exp(-(k_B - k_G) L): the farther the
+/// target, the further its colour leaves its clear-water ranges. A site's
+/// water changes (plankton, silt, the season), and so may each channel's
+/// absorption: with a water, an RGB-ratio type accepts, besides what its
+/// ranges accept, every colour of the water's ranges (its own by default)
+/// seen through up to `maxPathM` of any water that takes R/G and B/G each at
+/// most as far as this one: the water's ranges with the far end of each
+/// ratio moved by this water over `maxPathM` (R/B not checked), within its
+/// brightness range.
+struct Water {
+    std::array<double, 3> attenuationPerM{0.0, 0.0, 0.0};  ///< k_R, k_G, k_B of the murkiest water, per metre of path, each >= 0
+    double maxPathM{0.0};                                  ///< the longest light path, m, > 0
+    /// The colour the water acts on (the target's in clear water), when
+    /// narrower than the type's ranges; unset: the type's own.
+    std::optional<Range> redGreen;
+    std::optional<Range> blueGreen;
+    bool operator==(const Water& o) const {
+        return attenuationPerM == o.attenuationPerM && maxPathM == o.maxPathM && redGreen == o.redGreen &&
+               blueGreen == o.blueGreen;
+    }
+};
+
 /// The most brightness bands a target type may have.
 inline constexpr std::size_t kMaxBrightnessBands = 16;
 
@@ -118,6 +144,8 @@ struct TargetType {
     std::vector<BrightnessBand> brightnessBands;
     /// The site's haze (rgb_ratio without brightness bands only); unset: none.
     std::optional<Veil> veil;
+    /// The site's water (rgb_ratio without brightness bands only); unset: none.
+    std::optional<Water> water;
     HsvRanges hsv;              ///< used when filter == Hsv
     bool erodeRestore{false};   ///< erode, then feature-AND restore (thesis 3.3.2)
     int erodeKernelSize{3};     ///< odd, 1..31
@@ -138,7 +166,7 @@ struct TargetType {
     bool operator==(const TargetType& o) const {
         return name == o.name && filter == o.filter && redGreen == o.redGreen &&
                redBlue == o.redBlue && blueGreen == o.blueGreen && brightness == o.brightness &&
-               brightnessBands == o.brightnessBands && veil == o.veil &&
+               brightnessBands == o.brightnessBands && veil == o.veil && water == o.water &&
                hsv == o.hsv && erodeRestore == o.erodeRestore &&
                erodeKernelSize == o.erodeKernelSize && area == o.area &&
                aspectRatio == o.aspectRatio && areaRatio == o.areaRatio && window == o.window &&
