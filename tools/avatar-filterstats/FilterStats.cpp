@@ -474,6 +474,37 @@ Proposal propose(const tools::WorkingImage& image, const cv::Mat& targetMask, co
         p.veilWhy = veilWhy.str();
     }
 
+    if (options.water) {
+        std::ostringstream waterWhy;
+        if (p.type.filter != ColorFilterMethod::RgbRatio || !p.type.brightnessBands.empty()) {
+            waterWhy << "no water: it needs a single-range rgb_ratio filter";
+        } else {
+            double path = 0.0;
+            Rates at{p.rates};
+            for (int step = 1; step <= 10; ++step) {
+                const double l = options.waterPathM * step / 10.0;
+                TargetType seen = p.type;
+                seen.water = Water{*options.water, l, std::nullopt, std::nullopt};
+                const Rates r = rates(seen, allTarget, allBackground);
+                if (r.falsePositive > p.rates.falsePositive + options.waterFalsePositives) break;
+                path = l;
+                at = r;
+            }
+            if (path > 0.0) {
+                p.type.water = Water{*options.water, path, std::nullopt, std::nullopt};
+                waterWhy << "water up to " << fmt(path) << " m of path: false positives "
+                         << fmt(at.falsePositive * 100) << " % of the background samples (without it "
+                         << fmt(p.rates.falsePositive * 100) << " %, at most "
+                         << fmt(options.waterFalsePositives * 100) << " % more)";
+                p.rates = at;
+            } else {
+                waterWhy << "no water: a tenth of the path already passes more than "
+                         << fmt(options.waterFalsePositives * 100) << " % more of the background samples";
+            }
+        }
+        p.waterWhy = waterWhy.str();
+    }
+
     // The minimum area: the features of this filter over the whole image,
     // those on the target sample against the look-alikes elsewhere.
     std::vector<cv::Mat> masks;

@@ -54,6 +54,14 @@ struct Options {
     /// background samples.
     std::optional<std::array<double, 3>> veil;
     double veilFalsePositives{0.001};
+    /// The site's murkiest water (k_R, k_G, k_B per metre of light path,
+    /// docs/config.md, the water): when set and the proposal is a
+    /// single-range RGB-ratio filter, it takes the water up to the longest
+    /// path (steps of a tenth of waterPathM, at most that) that passes at
+    /// most waterFalsePositives more of the background samples.
+    std::optional<std::array<double, 3>> water;
+    double waterPathM{5.0};
+    double waterFalsePositives{0.001};
 };
 
 /// One candidate's rates on the samples, as the real filter gives them.
@@ -74,6 +82,7 @@ struct Proposal {
     std::vector<double> lookAlikeAreas;  ///< features elsewhere in the image
     std::string areaWhy;
     std::string veilWhy;  ///< the veil's share and why (empty without --veil)
+    std::string waterWhy;  ///< the water's path and why (empty without --water)
 };
 
 /// The statistics and the proposal. Throws avatar::InvalidArgument when a

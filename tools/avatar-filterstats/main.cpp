@@ -56,6 +56,12 @@ json reportOf(const filterstats::Proposal& p, const tools::WorkingImage& image) 
         report["veil"] = {{"colour_rgb", t.veil->colourRgb}, {"max_share", t.veil->maxShare}, {"why", p.veilWhy}};
     else if (!p.veilWhy.empty())
         report["veil"] = {{"why", p.veilWhy}};
+    if (t.water)
+        report["water"] = {{"attenuation_per_m", t.water->attenuationPerM},
+                           {"max_path_m", t.water->maxPathM},
+                           {"why", p.waterWhy}};
+    else if (!p.waterWhy.empty())
+        report["water"] = {{"why", p.waterWhy}};
     if (t.filter == ColorFilterMethod::Hsv)
         report["hsv"] = {{"hue", rangeJson(t.hsv.hue)},
                          {"saturation", rangeJson(t.hsv.saturation)},
@@ -97,6 +103,8 @@ int main(int argc, char** argv) {
         ("plots", po::value<std::string>(), "write the scatter plots into this directory (rg.png, rb.png, bg.png, hue.png)")
         ("fp-weight", po::value<double>()->default_value(10.0), "a false positive costs this many true positives when choosing")
         ("veil", po::value<std::string>(), "the site's haze backscatter colour 'R G B' (docs/config.md): propose the largest share of it the background allows")
+        ("water", po::value<std::string>(), "the site's murkiest water 'kR kG kB' per metre of light path (docs/config.md): propose the longest path of it the background allows")
+        ("water-path", po::value<double>()->default_value(5.0), "with --water: the longest light path to consider, m (lamp -> target -> camera)")
         ("log", po::value<std::string>()->default_value("warn"), "log priority");
     // clang-format on
     return tools::runTool("avatar-filterstats", tools::HelpHint::Short, [&] {
@@ -145,6 +153,21 @@ int main(int argc, char** argv) {
                 throw tools::UsageError("--veil must be three numbers 'R G B', each >= 0 and G > 0, got '" + text + "'");
             o.veil = v;
         }
+        if (vm.count("water")) {
+            const std::string text = vm["water"].as<std::string>();
+            std::istringstream in(text);
+            std::array<double, 3> k{};
+            std::string rest;
+            const auto ok = [](double v) { return v >= 0.0 && v <= 1000.0; };
+            if (!(in >> k[0] >> k[1] >> k[2]) || (in >> rest) || !ok(k[0]) || !ok(k[1]) || !ok(k[2]))
+                throw tools::UsageError("--water must be three numbers 'kR kG kB', each 0..1000 per m, got '" + text +
+                                        "'");
+            o.water = k;
+            o.waterPathM = vm["water-path"].as<double>();
+            if (!(o.waterPathM > 0.0 && o.waterPathM <= 1000.0))
+                throw tools::UsageError("--water-path must be above 0 and at most 1000 m, got " +
+                                        std::to_string(o.waterPathM));
+        }
         tools::Progress progress("candidate filters", 0);
         o.progress = progress.reporter();
         const filterstats::Proposal p = filterstats::propose(image, target, background, o);
@@ -176,6 +199,7 @@ int main(int argc, char** argv) {
                   << p.targetSamples << ", false positives " << p.rates.falsePositive * 100 << " % of "
                   << p.backgroundSamples << "\nminimum area " << p.type.area.min << " px: " << p.areaWhy << "\n";
         if (!p.veilWhy.empty()) std::cout << p.veilWhy << "\n";
+        if (!p.waterWhy.empty()) std::cout << p.waterWhy << "\n";
         return 0;
     });
 }
