@@ -6,8 +6,9 @@
 //
 // 1. colour filters are measured on a training seed (ratio quantiles of the
 //    targets' pixels, R/G minima lowered where the water takes a colour and
-//    nothing else is, overlaps between colours split at the midpoint), and
-//    each type's size range from its whole targets' silhouettes;
+//    nothing else is, overlaps between colours split at the midpoint; then
+//    the haze's veil and the site's water), and each type's size range from
+//    its whole targets' silhouettes;
 // 2. every pair of the report seed is analysed; each reported stereo target
 //    is associated with the truth (any type) and judged: a target flagged
 //    whole whose truth is not whole in both views (strictly: anything of it
@@ -18,9 +19,9 @@
 //
 //   trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose | --verbose-all]
 //                [--dump DIR] [--sizes]
-//                [--no-veil]
-//                (--sizes: each type's size range trained too, as sizeMm; --no-veil: the
-//                filters without the haze's veil)
+//                [--no-veil] [--no-water]
+//                (--sizes: each type's size range trained too, as sizeMm; --no-veil, --no-water:
+//                the filters without the haze's veil, without the site's water)
 //   trust_report --covariance REPEATS [--seed S] [--covariance-centroids] [--covariance-range SCALE]
 //                (predicted sigma against the spread; every target placed by its
 //                centroids; the targets SCALE times as far)
@@ -69,6 +70,7 @@ struct Options {
     /// two discs (docs/accuracy.md).
     bool sizes{false};
     bool veil{true};  ///< the filters take the haze's veil (trainVeil)
+    bool water{true};  ///< the filters take the site's water (trainWater)
     std::string dumpDir;  ///< non-empty: crops of each false or missed target are written there
     int covarianceRepeats{0};  ///< > 0: only the covariance check, with this many noise seeds
     TargetShape covarianceShape{TargetShape::Sphere};  ///< what its types are declared
@@ -278,6 +280,76 @@ std::size_t passing(const TargetType& type, const std::vector<cv::Point2d>& chro
     return static_cast<std::size_t>(cv::countNonZero(masks[0]));
 }
 
+/// Each colour's clear colour (its targets' median log chroma outside water
+/// and haze) and the ratio ranges the veil and the water act on: those
+/// medians' extent, 0.1 wider in log.
+struct ClearColours {
+    std::map<std::string, cv::Point2d> median;
+    std::map<std::string, std::pair<Range, Range>> source;  ///< R/G, B/G
+};
+
+ClearColours clearColours(const std::map<std::string, std::vector<cv::Point2d>>& clearChroma) {
+    ClearColours out;
+    for (const auto& [name, v] : clearChroma) {
+        std::vector<double> a, b;
+        for (const cv::Point2d& c : v) a.push_back(c.x), b.push_back(c.y);
+        if (a.empty()) continue;
+        out.median[name] = cv::Point2d(quantile(a, 0.5), quantile(b, 0.5));
+        const auto [a0, a1] = std::minmax_element(a.begin(), a.end());
+        const auto [b0, b1] = std::minmax_element(b.begin(), b.end());
+        out.source[name] = {Range{std::exp(*a0 - 0.1), std::exp(*a1 + 0.1)},
+                            Range{std::exp(*b0 - 0.1), std::exp(*b1 + 0.1)}};
+    }
+    return out;
+}
+
+/// What a region added to type @p t's ranges (its veil's, its water's) may
+/// take in beyond what the ranges pass: next to none of the other colours'
+/// training pixels (0.05 %) and the background's (0.002 %, the limits of
+/// the R/G growth), at most 1 % of the pixels on the edges of its whole
+/// spheres outside haze (mixed with what lies behind them).
+class TakenIn {
+public:
+    TakenIn(const TargetType& t, const std::map<std::string, std::vector<double>>& rg,
+            const std::map<std::string, std::vector<double>>& bg,
+            const std::map<std::string, std::vector<cv::Point2d>>& edgeChroma,
+            const std::vector<cv::Point2d>& background)
+        : background_(background) {
+        for (const auto& [other, pixels] : rg)
+            if (other != t.name)
+                for (std::size_t i = 0; i < pixels.size(); ++i) others_.emplace_back(pixels[i], bg.at(other)[i]);
+        if (const auto e = edgeChroma.find(t.name); e != edgeChroma.end()) edges_ = e->second;
+        limits_ = {std::max<std::size_t>(5, others_.size() / 2000), std::max<std::size_t>(5, background.size() / 50000),
+                   edges_.size() / 100};
+        base_ = {passing(t, others_), passing(t, background_), passing(t, edges_)};
+    }
+
+    /// Why @p grown (t with the region) takes in too much, "" when it does not.
+    std::string tooMuch(const TargetType& grown) const {
+        const std::array<std::size_t, 3> n{passing(grown, others_) - base_[0], passing(grown, background_) - base_[1],
+                                           passing(grown, edges_) - base_[2]};
+        if (n[0] <= limits_[0] && n[1] <= limits_[1] && n[2] <= limits_[2]) return {};
+        char why[128];
+        std::snprintf(why, sizeof why, "other colours %zu/%zu, background %zu/%zu, edges %zu/%zu", n[0], limits_[0],
+                      n[1], limits_[1], n[2], limits_[2]);
+        return why;
+    }
+
+private:
+    std::vector<cv::Point2d> others_, edges_;
+    const std::vector<cv::Point2d>& background_;
+    std::array<std::size_t, 3> limits_{}, base_{};
+};
+
+/// The ranges a region added to @p t acts on: the clear colour's (@p from),
+/// within t's own; none when they do not meet.
+std::optional<std::pair<Range, Range>> actedOn(const TargetType& t, const std::pair<Range, Range>& from) {
+    const Range rg{std::max(t.redGreen.min, from.first.min), std::min(t.redGreen.max, from.first.max)};
+    const Range bg{std::max(t.blueGreen.min, from.second.min), std::min(t.blueGreen.max, from.second.max)};
+    if (rg.min > rg.max || bg.min > bg.max) return std::nullopt;
+    return std::make_pair(rg, bg);
+}
+
 /// The haze's veil (TargetConfig.h, Veil), measured on the training scenes
 /// as a site would: a target seen through haze has a colour in the plane of
 /// its clear colour and the veil's (t J + (1 - t) V), so the veil's colour is
@@ -298,16 +370,8 @@ void trainVeil(AvatarConfig& config, const std::map<std::string, std::vector<cv:
                const std::map<std::string, std::vector<cv::Point2d>>& edgeChroma,
                const std::map<std::string, std::vector<double>>& rg, const std::map<std::string, std::vector<double>>& bg,
                const std::vector<cv::Point2d>& background) {
-    std::map<std::string, cv::Point2d> clear;
-    std::map<std::string, std::pair<Range, Range>> source;  // the clear targets' medians, 0.1 wider (log)
-    for (const auto& [name, v] : clearChroma) {
-        std::vector<double> a, b;
-        for (const cv::Point2d& c : v) a.push_back(c.x), b.push_back(c.y);
-        clear[name] = cv::Point2d(quantile(a, 0.5), quantile(b, 0.5));
-        const auto [a0, a1] = std::minmax_element(a.begin(), a.end());
-        const auto [b0, b1] = std::minmax_element(b.begin(), b.end());
-        source[name] = {Range{std::exp(*a0 - 0.1), std::exp(*a1 + 0.1)}, Range{std::exp(*b0 - 0.1), std::exp(*b1 + 0.1)}};
-    }
+    const ClearColours clearColour = clearColours(clearChroma);
+    const std::map<std::string, cv::Point2d>& clear = clearColour.median;
     cv::Matx33d scatter = cv::Matx33d::zeros();
     int planes = 0;
     for (const auto& [name, c] : hazyChroma) {
@@ -333,36 +397,22 @@ void trainVeil(AvatarConfig& config, const std::map<std::string, std::vector<cv:
     }
     const std::array<double, 3> colour{std::max(0.0, v[0] / v[1]), 1.0, std::max(0.0, v[2] / v[1])};
     std::printf("R:G:B %.3f:1:%.3f\n\n| type   | maxShare | R/G acted on | B/G acted on | stopped by (pixels taken in / limit) |\n|--------|----------|---|---|---|\n", colour[0], colour[2]);
-    const std::size_t backgroundLimit = std::max<std::size_t>(5, background.size() / 50000);
     for (TargetType& t : config.targets.targets) {
-        std::vector<cv::Point2d> others;
-        for (const auto& [other, pixels] : rg)
-            if (other != t.name)
-                for (std::size_t i = 0; i < pixels.size(); ++i) others.emplace_back(pixels[i], bg.at(other)[i]);
-        const std::size_t othersLimit = std::max<std::size_t>(5, others.size() / 2000);
-        const std::size_t others0 = passing(t, others), background0 = passing(t, background);
-        static const std::vector<cv::Point2d> kNone;
-        const auto e = edgeChroma.find(t.name);
-        const std::vector<cv::Point2d>& edges = e == edgeChroma.end() ? kNone : e->second;
-        const std::size_t edges0 = passing(t, edges), edgeLimit = edges.size() / 100;
-        const auto from = source.find(t.name);
-        if (from == source.end()) continue;
-        const Range veilRg{std::max(t.redGreen.min, from->second.first.min), std::min(t.redGreen.max, from->second.first.max)};
-        const Range veilBg{std::max(t.blueGreen.min, from->second.second.min),
-                           std::min(t.blueGreen.max, from->second.second.max)};
-        if (veilRg.min > veilRg.max || veilBg.min > veilBg.max) continue;
+        const auto from = clearColour.source.find(t.name);
+        if (from == clearColour.source.end()) continue;
+        const auto ranges = actedOn(t, from->second);
+        if (!ranges) continue;
+        const auto& [veilRg, veilBg] = *ranges;
+        const TakenIn takenIn(t, rg, bg, edgeChroma, background);
         double share = 0.0;
         std::string stop = "the 0.9 cap";
         for (double s = 0.02; s <= 0.9 + 1e-9; s += 0.02) {
             TargetType veiled = t;
             veiled.veil = Veil{colour, s, veilRg, veilBg};
-            const std::size_t no = passing(veiled, others) - others0, nb = passing(veiled, background) - background0,
-                              ne = passing(veiled, edges) - edges0;
-            if (no > othersLimit || nb > backgroundLimit || ne > edgeLimit) {
-                char why[160];
-                std::snprintf(why, sizeof why, "at %.2f: other colours %zu/%zu, background %zu/%zu, edges %zu/%zu", s,
-                              no, othersLimit, nb, backgroundLimit, ne, edgeLimit);
-                stop = why;
+            if (const std::string why = takenIn.tooMuch(veiled); !why.empty()) {
+                char at[16];
+                std::snprintf(at, sizeof at, "at %.2f: ", s);
+                stop = at + why;
                 break;
             }
             share = s;
@@ -370,6 +420,99 @@ void trainVeil(AvatarConfig& config, const std::map<std::string, std::vector<cv:
         if (share > 0.0) t.veil = Veil{colour, share, veilRg, veilBg};
         std::printf("| %-6s | %.2f | %.3f-%.3f | %.3f-%.3f | %s |\n", t.name.c_str(), share, veilRg.min, veilRg.max,
                     veilBg.min, veilBg.max, stop.c_str());
+    }
+}
+
+/// A whole target of a training scene under water (without haze): its
+/// type, its median log chroma (left view) and its range.
+struct WaterTarget {
+    std::string type;
+    cv::Point2d chroma;
+    double rangeMm{0.0};
+    std::size_t scene{0};
+};
+
+/// The site's water (TargetConfig.h, Water), measured on the training scenes
+/// as a site would: each target under water (no haze) moved from its type's
+/// median colour outside water and haze by (dx, dy) in log (R/G, B/G). In
+/// each water scene with three targets or more, a line fitted to each
+/// against the light's path (lamp at the cameras: twice the range; the
+/// ambient light's tint moves near targets too) says how far that water
+/// takes them at the farthest target; the water is the murkiest in each
+/// (negative reach: none). It acts on each type's colour outside water and
+/// haze (as the veil does), through the longest path with the largest
+/// share of that water's R absorption (steps of a tenth), then of its B
+/// absorption, whose ranges take in next to none of the other colours'
+/// pixels and the background's and at most 1 % of its whole spheres' edge
+/// pixels (the veil's limits).
+void trainWater(AvatarConfig& config, const std::map<std::string, std::vector<cv::Point2d>>& clearChroma,
+                const std::vector<WaterTarget>& waterTargets,
+                const std::map<std::string, std::vector<cv::Point2d>>& edgeChroma,
+                const std::map<std::string, std::vector<double>>& rg, const std::map<std::string, std::vector<double>>& bg,
+                const std::vector<cv::Point2d>& background) {
+    const ClearColours clearColour = clearColours(clearChroma);
+    const std::map<std::string, cv::Point2d>& clear = clearColour.median;
+    const double longestPathM = 2.0 * kFarthestTargetMm / 1000.0;
+    std::map<std::size_t, std::vector<std::pair<double, cv::Point2d>>> byScene;  // path m, (dx, dy)
+    for (const WaterTarget& w : waterTargets) {
+        const auto c = clear.find(w.type);
+        if (c != clear.end()) byScene[w.scene].emplace_back(2.0 * w.rangeMm / 1000.0, w.chroma - c->second);
+    }
+    cv::Point2d reach(0.0, 0.0);  // the largest fall of log R/G and log B/G at the longest path
+    int fitted = 0;
+    for (const auto& [scene, points] : byScene) {
+        if (points.size() < 3) continue;
+        double n = 0, mp = 0, mpp = 0;
+        cv::Point2d md(0, 0), mpd(0, 0);
+        for (const auto& [path, d] : points) n += 1, mp += path, mpp += path * path, md += d, mpd += path * d;
+        mp /= n, mpp /= n, md /= n, mpd /= n;
+        const double var = mpp - mp * mp;
+        if (var < 0.01) continue;  // paths too alike to fit a line
+        const cv::Point2d slope = (mpd - mp * md) / var, at = md + slope * (longestPathM - mp);
+        reach.x = std::max(reach.x, -at.x);
+        reach.y = std::max(reach.y, -at.y);
+        ++fitted;
+    }
+    std::printf("\nWater, from %zu targets in %d scenes: ", waterTargets.size(), fitted);
+    reach.x = std::max(reach.x, 0.0), reach.y = std::max(reach.y, 0.0);
+    if (reach.x == 0.0 && reach.y == 0.0) {
+        std::printf("none\n");
+        return;
+    }
+    const std::array<double, 3> attenuation{reach.x / longestPathM, 0.0, reach.y / longestPathM};
+    std::printf("attenuation per m R %.3f G 0 B %.3f (at most), up to %.2f m of path\n\n"
+                "| type   | share of R's | of B's | R/G acted on | B/G acted on | R stopped by (pixels taken in / limit) | B stopped by |\n"
+                "|--------|---|---|---|---|---|---|\n",
+                attenuation[0], attenuation[2], longestPathM);
+    for (TargetType& t : config.targets.targets) {
+        const auto from = clearColour.source.find(t.name);
+        if (from == clearColour.source.end()) continue;
+        const auto ranges = actedOn(t, from->second);
+        if (!ranges) continue;
+        const auto& [waterRg, waterBg] = *ranges;
+        const TakenIn takenIn(t, rg, bg, edgeChroma, background);
+        // R/G's reach first (B/G's none), then B/G's with it.
+        std::array<double, 2> share{0.0, 0.0};
+        std::string stop[2] = {"-", "-"};
+        for (int axis = 0; axis < 2; ++axis)
+            for (int step = 1; step <= 10; ++step) {
+                std::array<double, 2> trial = share;
+                trial[static_cast<std::size_t>(axis)] = step / 10.0;
+                TargetType seen = t;
+                seen.water = Water{{attenuation[0] * trial[0], 0.0, attenuation[2] * trial[1]}, longestPathM, waterRg,
+                                   waterBg};
+                if (const std::string why = takenIn.tooMuch(seen); !why.empty()) {
+                    char at[16];
+                    std::snprintf(at, sizeof at, "at %.1f: ", trial[static_cast<std::size_t>(axis)]);
+                    stop[axis] = at + why;
+                    break;
+                }
+                share = trial;
+            }
+        if (share[0] > 0.0 || share[1] > 0.0)
+            t.water = Water{{attenuation[0] * share[0], 0.0, attenuation[2] * share[1]}, longestPathM, waterRg, waterBg};
+        std::printf("| %-6s | %.1f | %.1f | %.3f-%.3f | %.3f-%.3f | %s | %s |\n", t.name.c_str(), share[0], share[1],
+                    waterRg.min, waterRg.max, waterBg.min, waterBg.max, stop[0].c_str(), stop[1].c_str());
     }
 }
 
@@ -390,6 +533,8 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
     // Each whole target's median log chroma (left view), in clear water and in haze alone.
     std::map<std::string, std::vector<cv::Point2d>> clearChroma;
     std::vector<std::pair<std::string, cv::Point2d>> hazyChroma;
+    // ... and under water without haze, with each one's range.
+    std::vector<WaterTarget> waterTargets;
     // The edge pixels of whole spheres outside haze (mixed with what is behind them), by type.
     std::map<std::string, std::vector<cv::Point2d>> edgeChroma;
     const auto train = scenes(o.trainScenes, o.trainSeed, stereo, sensor);
@@ -413,9 +558,11 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
             }
             const render::Lighting& light = train[k].lighting;
             const bool water = light.attenuationPerM[0] + light.attenuationPerM[1] + light.attenuationPerM[2] > 0.0;
-            if (!water && t.right.visibility == render::TargetVisibility::Full && t.left.areaPx >= 300.0)
+            if (t.right.visibility == render::TargetVisibility::Full && t.left.areaPx >= 300.0)
                 if (const auto c = centralChroma(analysis.lastFrame().at(Side::Left).image, t.left)) {
-                    if (light.turbidityPerM > 0.0) hazyChroma.emplace_back(t.type, *c);
+                    if (water) {
+                        if (light.turbidityPerM == 0.0) waterTargets.push_back({t.type, *c, cv::norm(t.centreLeftMm), k});
+                    } else if (light.turbidityPerM > 0.0) hazyChroma.emplace_back(t.type, *c);
                     else clearChroma[t.type].push_back(*c);
                 }
             if (light.turbidityPerM == 0.0 && t.shape == render::Shape::Sphere &&
@@ -529,6 +676,7 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
                     t.blueGreen.min, t.blueGreen.max, rg[t.name].size());
     }
     if (o.veil) trainVeil(config, clearChroma, hazyChroma, edgeChroma, rg, bg, background);
+    if (o.water) trainWater(config, clearChroma, waterTargets, edgeChroma, rg, bg, background);
     if (o.sizes) {
         // The sizes seen, widened by 10 % each way (the measured silhouettes
         // differ from the exact ones by a few per cent).
@@ -864,7 +1012,7 @@ void dumpCrops(const std::string& dir, const render::GroundTruth& truth, const A
 }
 
 void usage() {
-    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose | --verbose-all] [--dump DIR] [--sizes] [--no-veil] [--covariance REPEATS [--covariance-centroids] [--covariance-range SCALE]]\n");
+    std::fprintf(stderr, "usage: trust_report [--scenes N] [--train-scenes N] [--train-seed S] [--seed S] [--verbose | --verbose-all] [--dump DIR] [--sizes] [--no-veil] [--no-water] [--covariance REPEATS [--covariance-centroids] [--covariance-range SCALE]]\n");
 }
 
 }  // namespace
@@ -893,6 +1041,7 @@ int main(int argc, char** argv) {
         else if (a == "--dump") o.dumpDir = value();
         else if (a == "--sizes") o.sizes = true;
         else if (a == "--no-veil") o.veil = false;
+        else if (a == "--no-water") o.water = false;
         else if (a == "--covariance") o.covarianceRepeats = std::atoi(value().c_str());
         else if (a == "--covariance-centroids") o.covarianceShape = TargetShape::None;
         else if (a == "--covariance-range") o.covarianceRange = std::atof(value().c_str());
