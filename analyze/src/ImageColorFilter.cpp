@@ -700,9 +700,9 @@ RatioLimits<T> ratioLimits(const Range& rg, const Range& rb, const Range& bg, do
 /// of 1/q, q the power of two with 24 < q x <= 48: a fraction whose nearest
 /// neighbours of 16-bit samples lie far enough for the float test to be
 /// exact (limitIsExact: q x below 64), at most 4.2 % further; x itself when
-/// that multiple would be 0.
+/// that multiple would be 0 or x is below every ratio of samples (1/65535).
 double roundOutward(double x, Bound bound) {
-    if (!(x > 0.0) || x >= kOpenMax) return x;
+    if (!(x > 1e-5) || x >= kOpenMax) return x;
     const double q = std::exp2(std::floor(std::log2(48.0 / x)));
     const double p = bound == Bound::Lower ? std::floor(x * q) : std::ceil(x * q);
     return p > 0.0 ? p / q : x;
