@@ -449,8 +449,8 @@ std::vector<BrightnessBand> readBands(Reader& r, const XMLElement* el, const std
 
 TargetType readTarget(Reader& r, const XMLElement* el, const std::string& path) {
     const Section s(r, el, path,
-                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "veil", "water", "hsv",
-                     "erodeRestore",
+                    {"filter", "redGreen", "redBlue", "blueGreen", "brightness", "brightnessBands", "veil", "water",
+                     "hsv", "erodeRestore",
                      "erodeKernelSize", "area", "aspectRatio", "areaRatio", "window", "shape", "sizeMm"},
                     {"name"});
     TargetType t;

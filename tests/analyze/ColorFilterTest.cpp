@@ -659,7 +659,8 @@ TEST(ColorFilter, AWaterAcceptsTheTypesColourSeenThroughItUpToItsPath) {
         px.push_back(through(orange, path, 20000.0));
         expected.push_back(0);
     }
-    for (const std::array<double, 3>& other : {std::array<double, 3>{0.12, 0.6, 0.15}, {0.92, 0.72, 0.04}, {0.55, 0.5, 0.4}})
+    const std::array<double, 3> green{0.12, 0.6, 0.15}, yellow{0.92, 0.72, 0.04}, seabed{0.55, 0.5, 0.4};
+    for (const std::array<double, 3>& other : {green, yellow, seabed})
         for (double path : {0.0, 2.0, 4.0}) {  // green, yellow, the seabed through the same water
             px.push_back(through(other, path, 20000.0));
             expected.push_back(0);

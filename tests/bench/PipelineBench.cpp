@@ -482,7 +482,8 @@ void BM_PipelineWith(benchmark::State& state, const std::string& name, bool para
     // The site's water on every type (docs/config.md): one more box of ratio
     // limits on every pixel.
     if (water)
-        for (TargetType& t : config.targets.targets) t.water = Water{{0.24, 0.0, 0.07}, 5.0, std::nullopt, std::nullopt};
+        for (TargetType& t : config.targets.targets)
+            t.water = Water{{0.24, 0.0, 0.07}, 5.0, std::nullopt, std::nullopt};
     AnalyzeStereoImagePair chain(config);
     chain.setParallel(parallel);
     const Found f = found(chain, chain.analyze(in.pair, 0));  // warm-up, and the check

@@ -510,7 +510,8 @@ void trainWater(AvatarConfig& config, const std::map<std::string, std::vector<cv
                 share = trial;
             }
         if (share[0] > 0.0 || share[1] > 0.0)
-            t.water = Water{{attenuation[0] * share[0], 0.0, attenuation[2] * share[1]}, longestPathM, waterRg, waterBg};
+            t.water =
+                Water{{attenuation[0] * share[0], 0.0, attenuation[2] * share[1]}, longestPathM, waterRg, waterBg};
         std::printf("| %-6s | %.1f | %.1f | %.3f-%.3f | %.3f-%.3f | %s | %s |\n", t.name.c_str(), share[0], share[1],
                     waterRg.min, waterRg.max, waterBg.min, waterBg.max, stop[0].c_str(), stop[1].c_str());
     }
@@ -561,7 +562,8 @@ AvatarConfig trainFilters(const Options& o, const StereoSystemConfig& stereo, co
             if (t.right.visibility == render::TargetVisibility::Full && t.left.areaPx >= 300.0)
                 if (const auto c = centralChroma(analysis.lastFrame().at(Side::Left).image, t.left)) {
                     if (water) {
-                        if (light.turbidityPerM == 0.0) waterTargets.push_back({t.type, *c, cv::norm(t.centreLeftMm), k});
+                        if (light.turbidityPerM == 0.0)
+                            waterTargets.push_back({t.type, *c, cv::norm(t.centreLeftMm), k});
                     } else if (light.turbidityPerM > 0.0) hazyChroma.emplace_back(t.type, *c);
                     else clearChroma[t.type].push_back(*c);
                 }

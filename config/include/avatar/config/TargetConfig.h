@@ -115,8 +115,9 @@ struct Veil {
 /// ratio moved by this water over `maxPathM` (R/B not checked), within its
 /// brightness range.
 struct Water {
-    std::array<double, 3> attenuationPerM{0.0, 0.0, 0.0};  ///< k_R, k_G, k_B of the murkiest water, per metre of path, each >= 0
-    double maxPathM{0.0};                                  ///< the longest light path, m, > 0
+    /// k_R, k_G, k_B of the murkiest water, per metre of light path, each 0..1000.
+    std::array<double, 3> attenuationPerM{0.0, 0.0, 0.0};
+    double maxPathM{0.0};  ///< the longest light path, m, in (0, 1000]
     /// The colour the water acts on (the target's in clear water), when
     /// narrower than the type's ranges; unset: the type's own.
     std::optional<Range> redGreen;
