@@ -261,6 +261,21 @@ bool foreignHole(const Silhouette::Hole& h, const TargetType& type, const Comple
            holeEvidence(h.offsetLog, h.axisNoiseLog, outsideFilterLog(type, h.ratiosLog)) >= limits.holeNoiseFactor;
 }
 
+bool ownPartHole(const Silhouette::Hole& h, const TargetType& composite, const CompletenessLimits& limits) {
+    if (!composite.veil) return false;
+    const auto& c = composite.veil->colourRgb;
+    if (!(c[0] > 0.0 && c[1] > 0.0 && c[2] > 0.0)) return false;
+    const cv::Vec2d veil(std::log(c[0] / c[1]), std::log(c[2] / c[1]));
+    const cv::Vec2d target = h.ratiosLog - h.offsetLog;
+    for (int a = 0; a < 2; ++a) {
+        const double noise = limits.holeNoiseFactor * h.axisNoiseLog[a];
+        const double towardsVeil = veil[a] - target[a];
+        if (!(std::abs(towardsVeil) > noise)) continue;  // the veil's side of this ratio is unknown
+        if (-std::copysign(1.0, towardsVeil) * h.offsetLog[a] > noise) return true;
+    }
+    return false;
+}
+
 // The sliver behind a contact (TargetAssembly.h says what it models).
 double hiddenAtContactPx(const cv::Point3d& a, double radiusA, const cv::Point3d& b, double radiusB,
                          const cv::Point3d& camera, double focalPx) {
@@ -1212,7 +1227,12 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     break;
                 }
             v.merged = v.strayShare > limits_.maxStrayShare || v.extraPart;
-            const bool holes = foreignTells && holed(sil, filter, limits_);
+            // Judged as the round filter's, but for a hole on the far side of
+            // the colour from the veil: the composite's own part of another
+            // colour (a hazy duck's beak), no speck in front (ownPartHole()).
+            const bool holes = foreignTells && std::any_of(sil.holes.begin(), sil.holes.end(), [&](const auto& h) {
+                return foreignHole(h, filter, limits_) && !ownPartHole(h, type, limits_);
+            });
             v.hidden = !v.merged && (partHidden || holes);
             if (v.hidden && !holes && fragments && !partHiddenButFragments) {  // as for a round target
                 v.hidden = false;

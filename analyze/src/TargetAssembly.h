@@ -203,6 +203,18 @@ double holeEvidence(const cv::Vec2d& offsetLog, const cv::Vec2d& noiseLog, const
 /// front of the target (CompletenessLimits::minHolePx says when).
 bool foreignHole(const Silhouette::Hole& hole, const TargetType& type, const CompletenessLimits& limits);
 
+/// Whether a hole in a silhouette of @p composite, found by a round type's
+/// filter (its colour in haze), is a part of the composite of another colour
+/// rather than something in front: its colour lies on the far side of the
+/// target's from @p composite's veil, beyond holeNoiseFactor times the
+/// noise, in R/G or B/G. A speck of silt in front is lit as the
+/// backscatter is, so with the target's colour mixed in at its rim its hole
+/// lies between the two colours or beyond the veil's (hazy ducks hidden by
+/// silt: -0.1 to -0.2 in R/G, +1.2 to +2.0 in B/G from the duck's, natural
+/// log); a duck's beak is redder than its body in any haze (+0.5 to +0.7 in
+/// R/G). False for a type without a veil.
+bool ownPartHole(const Silhouette::Hole& hole, const TargetType& composite, const CompletenessLimits& limits);
+
 /// Which of @p types' filters (their search windows are ignored) pass the
 /// colour @p bgr (in the units of @p depth, CV_8U or CV_16U, with
 /// @p bitDepth significant bits) once its R/G and B/G are each moved by up

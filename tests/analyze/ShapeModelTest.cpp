@@ -1251,6 +1251,43 @@ TEST(Completeness, AHoleIsJudgedPastTheFilterOnTheRatioThatCutIt) {
     EXPECT_FALSE(hole(6, 0.0, 0.45, 0.02, 0.01)) << "too near the target's colour";
 }
 
+// A duck found in haze by a round type's filter has its holes judged as
+// that filter's round targets' are, but one of its own parts of another
+// colour is no speck in front: ownPartHole() tells them by the side of the
+// target's colour the hole lies on, against the duck's veil (0.7 : 1 : 1,
+// log R/G -0.36, log B/G 0). The offsets are the trust report's (hazy
+// yellow ducks at log R/G 0.1, log B/G -1.2): silt specks -0.1 to -0.2 in
+// R/G and +1.2 to +2.0 in B/G, beaks +0.5 to +0.7 in R/G, +0.4 to +0.5 in
+// B/G.
+TEST(Completeness, AHoleRedderThanAHazyDuckIsItsBeakNotASpeckInFront) {
+    TargetType duck;
+    duck.name = "yellow";
+    duck.shape = TargetShape::Composite;
+    duck.veil = Veil{{0.7, 1.0, 1.0}, 0.5, std::nullopt, std::nullopt};
+    const detail::CompletenessLimits limits;
+    const auto own = [&](const TargetType& type, double offsetRg, double offsetBg, double noise) {
+        detail::Silhouette::Hole h;
+        h.areaPx = 10;
+        h.offsetLog = {offsetRg, offsetBg};
+        h.ratiosLog = cv::Vec2d(0.1, -1.2) + h.offsetLog;
+        h.colourLog = std::max(std::abs(offsetRg), std::abs(offsetBg));
+        h.axisNoiseLog = {noise, noise};
+        h.noiseLog = noise;
+        return detail::ownPartHole(h, type, limits);
+    };
+    EXPECT_TRUE(own(duck, 0.6, 0.45, 0.03)) << "a beak: redder, 20 times the noise";
+    EXPECT_FALSE(own(duck, 0.6, 0.45, 0.2)) << "as red, within four times the noise";
+    EXPECT_FALSE(own(duck, -0.15, 1.6, 0.03)) << "a speck of silt: towards the veil on both ratios";
+    EXPECT_FALSE(own(duck, -0.9, 1.7, 0.03)) << "a grey speck beyond the veil's R/G";
+    EXPECT_TRUE(own(duck, 0.0, -0.5, 0.03)) << "less blue than the duck, away from the veil";
+    TargetType clear = duck;
+    clear.veil.reset();
+    EXPECT_FALSE(own(clear, 0.6, 0.45, 0.03)) << "without a veil the side of a speck is unknown";
+    TargetType grey = duck;
+    grey.veil->colourRgb = {1.105, 1.0, 0.301};  // the veil's log ratios the duck's: no side on either
+    EXPECT_FALSE(own(grey, 0.6, 0.45, 0.03)) << "a veil of the duck's colour tells no side";
+}
+
 // What lies just beyond a bin of the outline that no point supports tells
 // something in front of the target (a grey stone, silt: no filter passes
 // it) from a limb the filter left a bin short: foreignAtMissing() against the
