@@ -713,17 +713,24 @@ TEST(ColorFilter, AWaterAcceptsTheTypesColourSeenThroughItUpToItsPath) {
     EXPECT_EQ(maskValues(filterOne(both, 16, t)), std::vector<int>(expected.size(), 0));
 }
 
-TEST(ColorFilter, AWaterIsValidated) {
+namespace {
+
+/// What the filter says of a configuration with type @p t alone: the
+/// message of its InvalidArgument, or "accepted".
+std::string filterVerdict(const TargetType& t) {
     std::vector<cv::Mat> masks;
-    const cv::Mat image(2, 2, CV_8UC3, cv::Scalar(1, 1, 1));
-    const auto message = [&](const TargetType& t) {
-        try {
-            colorFilterMasks(image, 8, {t}, masks);
-        } catch (const InvalidArgument& e) {
-            return std::string(e.what());
-        }
-        return std::string("accepted");
-    };
+    try {
+        colorFilterMasks(cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 1, 1)), 8, {t}, masks);
+    } catch (const InvalidArgument& e) {
+        return std::string(e.what());
+    }
+    return std::string("accepted");
+}
+
+}  // namespace
+
+TEST(ColorFilter, AWaterIsValidated) {
+    const auto message = filterVerdict;
     TargetType t = ratioType({1.9, 2.6}, {0.0, 1e9}, {0.09, 0.15});
     t.water = Water{{0.3, 0.05, 0.09}, 0.0, std::nullopt, std::nullopt};
     EXPECT_NE(message(t).find("/water/maxPathM: must be above 0 and at most 1000 m, got 0"), std::string::npos)
@@ -742,16 +749,7 @@ TEST(ColorFilter, AWaterIsValidated) {
 }
 
 TEST(ColorFilter, AVeilIsValidated) {
-    std::vector<cv::Mat> masks;
-    const cv::Mat image(2, 2, CV_8UC3, cv::Scalar(1, 1, 1));
-    const auto message = [&](const TargetType& t) {
-        try {
-            colorFilterMasks(image, 8, {t}, masks);
-        } catch (const InvalidArgument& e) {
-            return std::string(e.what());
-        }
-        return std::string("accepted");
-    };
+    const auto message = filterVerdict;
     TargetType t = ratioType({0.1, 0.3}, {0.0, 1e9}, {0.2, 0.3});
     t.veil = Veil{{0.7, 0.0, 1.0}, 0.3, std::nullopt, std::nullopt};
     EXPECT_NE(message(t).find("/veil/colourRgb: G (component 2) must be > 0, got 0"), std::string::npos)
