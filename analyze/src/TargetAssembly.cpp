@@ -378,22 +378,11 @@ std::vector<ColorTest> nearTests(const std::vector<TargetType>& types, int depth
     return tests;
 }
 
-/// Whether an object seen in view @p side only (its box @p box, its
-/// members' types @p memberTypes) lies behind a target whose disparity
-/// (x_left - x_right) is at least @p minDisparityPx: in front of it, the
-/// object would show in the other view at a larger disparity, within the
-/// match box (dx up to its maximum, dy within its range: the workspace).
-/// With @p minPx 0, none of its types' filters may pass a pixel there (a
-/// fragment: too small to count on its shape); otherwise no box of its
-/// size moved by such a disparity may hold @p minPx of their pixels (an
-/// object: it would show whole; other things of its colour, such as a
-/// target's own part of another colour, do not hide it). False where that
-/// stretch is empty or leaves the other image or a type's search window,
-/// or where the other view was searched in regions only (tracking,
-/// coarse-to-fine): it may lie there unseen.
+}  // namespace
+
 bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const std::vector<TargetType>& types,
                      const cv::Rect& box, const std::vector<std::size_t>& memberTypes, Side side,
-                     double minDisparityPx, double minPx = 0.0) {
+                     double minDisparityPx, double minPx) {
     const Side other = side == Side::Left ? Side::Right : Side::Left;
     const ImageWork& w = frame.at(other);
     if (!frame.regions[static_cast<std::size_t>(other)].empty() || w.image.empty()) return false;
@@ -408,37 +397,54 @@ bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const
         x0 = box.x - dHi, x1 = box.x + box.width - 1 - dLo;
         y0 = box.y - match.boxDyMax, y1 = box.y + box.height - 1 - match.boxDyMin;
     }
-    const cv::Rect band(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
-                        static_cast<int>(std::ceil(x1)) - static_cast<int>(std::floor(x0)) + 1,
-                        static_cast<int>(std::ceil(y1)) - static_cast<int>(std::floor(y0)) + 1);
-    cv::Mat colour = cv::Mat::zeros(band.size(), CV_8U);
+    const cv::Rect whole(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
+                         static_cast<int>(std::ceil(x1)) - static_cast<int>(std::floor(x0)) + 1,
+                         static_cast<int>(std::ceil(y1)) - static_cast<int>(std::floor(y0)) + 1);
+    // The part of the stretch every type's search window holds: where the
+    // object could be seen in the other view.
+    cv::Rect band = whole;
     for (const std::size_t t : memberTypes) {
         if (t >= w.masks.size() || w.masks[t].empty()) return false;
-        const cv::Rect window = searchWindow(types[t], w.image.size());
-        if ((band & window) != band) return false;
-        colour |= w.masks[t](band);
+        band &= searchWindow(types[t], w.image.size());
     }
-    if (!(minPx > 0.0)) return cv::countNonZero(colour) == 0;
-    // The box at every whole disparity of the stretch, from the band's
-    // summed-area table.
+    if (band.empty()) return false;
+    cv::Mat colour = cv::Mat::zeros(band.size(), CV_8U);
+    for (const std::size_t t : memberTypes) colour |= w.masks[t](band);
+    // The box at every whole disparity of the stretch, in the band's
+    // coordinates, and the part of it the band holds.
+    const int dx0 = static_cast<int>(std::ceil(dLo)), dx1 = static_cast<int>(std::floor(dHi));
+    const int dy0 = static_cast<int>(std::ceil(match.boxDyMin)), dy1 = static_cast<int>(std::floor(match.boxDyMax));
+    const auto seen = [&](int dx, int dy) {
+        const int x = (side == Side::Right ? box.x + dx : box.x - dx) - band.x;
+        const int y = (side == Side::Right ? box.y + dy : box.y - dy) - band.y;
+        return cv::Rect(x, y, box.width, box.height) & cv::Rect(0, 0, band.width, band.height);
+    };
+    if (!(minPx > 0.0)) {
+        if (band != whole)
+            for (int dx = dx0; dx <= dx1; ++dx)
+                for (int dy = dy0; dy <= dy1; ++dy)
+                    if (seen(dx, dy).area() < box.area()) return false;
+        return cv::countNonZero(colour) == 0;
+    }
+    // From the band's summed-area table.
     cv::Mat ones, sum;
     cv::threshold(colour, ones, 0, 1, cv::THRESH_BINARY);
     cv::integral(ones, sum, CV_32S);
-    const int dx0 = static_cast<int>(std::ceil(dLo)), dx1 = static_cast<int>(std::floor(dHi));
-    const int dy0 = static_cast<int>(std::ceil(match.boxDyMin)), dy1 = static_cast<int>(std::floor(match.boxDyMax));
     for (int dx = dx0; dx <= dx1; ++dx)
         for (int dy = dy0; dy <= dy1; ++dy) {
-            // The box's top left in the other image, then in the band.
-            const int x = (side == Side::Right ? box.x + dx : box.x - dx) - band.x;
-            const int y = (side == Side::Right ? box.y + dy : box.y - dy) - band.y;
-            const int xa = std::max(x, 0), ya = std::max(y, 0);
-            const int xb = std::min(x + box.width, band.width), yb = std::min(y + box.height, band.height);
-            if (xb <= xa || yb <= ya) continue;
-            const int n = sum.at<int>(yb, xb) - sum.at<int>(ya, xb) - sum.at<int>(yb, xa) + sum.at<int>(ya, xa);
-            if (n >= minPx) return false;
+            const cv::Rect r = seen(dx, dy);
+            // Cut to less than a quarter of its box, a round object would
+            // show too little of itself there to tell (a disc shows a fifth
+            // of its area at a quarter of its box's width): unseen.
+            if (4 * r.area() < box.area()) return false;
+            const int n = sum.at<int>(r.y + r.height, r.x + r.width) - sum.at<int>(r.y, r.x + r.width) -
+                          sum.at<int>(r.y + r.height, r.x) + sum.at<int>(r.y, r.x);
+            if (n >= minPx * r.area() / box.area()) return false;
         }
     return true;
 }
+
+namespace {
 
 std::vector<bool> near(const std::vector<ColorTest>& tests, const cv::Vec3f& bgr, double full, double marginLog) {
     std::vector<bool> out(tests.size(), false);

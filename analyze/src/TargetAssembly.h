@@ -203,6 +203,27 @@ double holeEvidence(const cv::Vec2d& offsetLog, const cv::Vec2d& noiseLog, const
 /// front of the target (CompletenessLimits::minHolePx says when).
 bool foreignHole(const Silhouette::Hole& hole, const TargetType& type, const CompletenessLimits& limits);
 
+/// Whether an object seen in view @p side only (its box @p box, its
+/// members' types @p memberTypes) lies behind a target whose disparity
+/// (x_left - x_right) is at least @p minDisparityPx: in front of it, the
+/// object would show in the other view at a larger disparity, within the
+/// match box (dx up to its maximum, dy within its range: the workspace).
+/// With @p minPx 0, none of its types' filters may pass a pixel there (a
+/// fragment: too small to count on its shape); otherwise no box of its
+/// size moved by such a disparity may hold @p minPx of their pixels (an
+/// object: it would show whole; other things of its colour, such as a
+/// target's own part of another colour, do not hide it; a box the other
+/// image or a type's search window cuts must hold its share of @p minPx in
+/// the part it shows). False where that stretch is empty, where the
+/// object's box at one of its disparities shows less than a quarter of
+/// itself in the other image and every type's search window (a fragment,
+/// counted by any pixel: any part of it beyond them), or where the other
+/// view was searched in regions only (tracking, coarse-to-fine): it may
+/// lie there unseen.
+bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const std::vector<TargetType>& types,
+                     const cv::Rect& box, const std::vector<std::size_t>& memberTypes, Side side,
+                     double minDisparityPx, double minPx = 0.0);
+
 /// Whether a hole in a silhouette of @p composite, found by a round type's
 /// filter (its colour in haze), is a part of the composite of another colour
 /// rather than something in front: its colour lies on the far side of the

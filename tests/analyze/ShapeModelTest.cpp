@@ -1876,6 +1876,60 @@ TEST(Completeness, TheTypesSizeTellsTwoTouchingDucksFromOne) {
     EXPECT_TRUE(d && (d->flags & kTargetAmbiguous) && !(d->flags & kTargetWhole)) << flagsOf(d);
 }
 
+// behindByAbsence() on masks drawn by hand: an object 40x40 px seen in the
+// left view alone, its box's left edge at x, behind a target of disparity
+// 100 px if the right view, between 100 and 300 px of disparity (rows
+// within 5 px), shows no 800 px of its colour in a box of its size. Near the
+// left edge the stretch leaves the right image: a box the image cuts still
+// counts for what it shows, down to a quarter of itself (before, any part
+// beyond the image left the object undecided, and a whole duck at 0.54 m
+// touching such an object was occluded; trust_report seed 58).
+TEST(Completeness, AnObjectOneViewAloneShowsIsBehindWhereTheOtherViewLacksItsColour) {
+    AnalysisFrame frame;
+    ImageWork& right = frame.at(Side::Right);
+    right.image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(0, 0, 0));
+    right.masks = {cv::Mat::zeros(480, 640, CV_8UC1)};
+    TargetType type;
+    type.name = "orange";
+    const std::vector<TargetType> types{type};
+    MatchConfig match;
+    match.boxDxMin = 10.0;
+    match.boxDxMax = 300.0;
+    match.boxDyMin = -5.0;
+    match.boxDyMax = 5.0;
+    const auto behind = [&](int x, double minPx) {
+        return detail::behindByAbsence(frame, match, types, cv::Rect(x, 200, 40, 40), {0}, Side::Left, 100.0, minPx);
+    };
+    EXPECT_TRUE(behind(400, 800.0)) << "nothing in the right view, the stretch inside it";
+    EXPECT_TRUE(behind(290, 800.0)) << "the box 10 px beyond the right image at 300 px: three quarters show";
+    EXPECT_TRUE(behind(270, 800.0)) << "30 px beyond: a quarter shows";
+    EXPECT_FALSE(behind(269, 800.0)) << "31 px beyond: less than a quarter shows, it may lie there unseen";
+    EXPECT_FALSE(behind(290, 0.0)) << "a fragment, counted by any pixel: any part beyond the image leaves it unseen";
+    EXPECT_TRUE(behind(400, 0.0)) << "a fragment whose stretch lies inside the image";
+
+    // Its colour at a disparity of 200 px, a blob of its size: there.
+    right.masks[0](cv::Rect(200, 200, 40, 40)).setTo(255);
+    EXPECT_FALSE(behind(400, 800.0));
+    EXPECT_FALSE(behind(400, 0.0));
+    // Only its colour in a column at the image's edge, where the box 10 px
+    // beyond the image at 300 px shows 30 of its 40 columns: 15 columns of
+    // 40 rows (600 px) hold its share of 800 px there, 10 columns do not.
+    right.masks[0].setTo(0);
+    right.masks[0](cv::Rect(0, 195, 15, 50)).setTo(255);
+    EXPECT_FALSE(behind(290, 800.0)) << "600 px of its colour where three quarters of its box show";
+    right.masks[0].setTo(0);
+    right.masks[0](cv::Rect(0, 195, 10, 50)).setTo(255);
+    EXPECT_TRUE(behind(290, 800.0)) << "400 px: fewer than its share there";
+    // A type's search window cuts the stretch as the image's edge does.
+    right.masks[0].setTo(0);
+    TargetType windowed = type;
+    windowed.window = SearchWindow{150, 0, 490, 480};
+    EXPECT_TRUE(behind(380, 800.0)) << "the image alone holds the box at every disparity";
+    EXPECT_FALSE(detail::behindByAbsence(frame, match, {windowed}, cv::Rect(380, 200, 40, 40), {0}, Side::Left,
+                                         100.0, 800.0))
+        << "the window starts at x 150: at 300 px the box lies wholly beyond it";
+}
+
 // A duck (a composite: any contact is judged by depth) in front of a gold
 // disc that it hides whole in the left view and in part in the right, where
 // the disc touches its body: the disc is seen in the right view alone, so no
