@@ -516,6 +516,10 @@ std::optional<double> partSeparation(const StereoCoordinateCalculator& calculato
 
 }  // namespace
 
+bool headSunk(const std::optional<double>& separation, const CompletenessLimits& limits) {
+    return separation && *separation >= limits.minPartSeparation && *separation <= limits.maxPartSeparation;
+}
+
 TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits limits)
     : config_(config),
       limits_(limits),
@@ -1667,7 +1671,7 @@ std::optional<TargetAssembler::Built> TargetAssembler::decideByShape(const Analy
     // model found ragged), so the shape decides for a composite only where
     // both views show its head, sunk into its body.
     const std::optional<double> separation = other.partSeparation;
-    if (types[*rival].shape == TargetShape::Composite && (!separation || *separation > limits_.maxPartSeparation)) {
+    if (types[*rival].shape == TargetShape::Composite && !headSunk(separation, limits_)) {
         if (log4cpp::Category& log = logger(); log.isDebugEnabled())
             log.debugStream() << types[left.type].name << " at L " << left.feature.centroid << ": a whole "
                               << types[*rival].name << " by its shape, but its head "
@@ -1712,8 +1716,7 @@ std::optional<TargetAssembler::Built> TargetAssembler::decideForOwn(const Analys
     const bool compositeMine = mine == TargetShape::Composite && isRound(theirs);
     if (roundMine && own.target.model != ShapeModel::Sphere && own.target.model != ShapeModel::Disc)
         return std::nullopt;
-    if (compositeMine && !(own.partSeparation && *own.partSeparation <= limits_.maxPartSeparation))
-        return std::nullopt;
+    if (compositeMine && !headSunk(own.partSeparation, limits_)) return std::nullopt;
     if (!roundMine && !compositeMine) return std::nullopt;
     // What rejects a shape: for a round rival (which cannot follow a
     // duck's two parts), merged or hidden; for a composite rival, merged,

@@ -148,6 +148,14 @@ struct CompletenessLimits {
     /// into its body: their centres at most this share of the sum of their
     /// radii apart (a duck's 0.6; two touching spheres 1).
     double maxPartSeparation{0.8};
+    /// ... and at least this share: a second part nearly at the body's
+    /// centre is no head but the body's own outline fitted twice (a far
+    /// orange sphere with a ragged limb, fitted without its deeper notches
+    /// in a trial, had one at 0.09 and was taken for a whole yellow duck;
+    /// docs/accuracy.md, the twenty-eighth round). Half a duck's; heads lay
+    /// at 0.41-0.73 in the 74 decisions for a duck on 28 seeds of
+    /// trust_report.
+    double minPartSeparation{0.3};
     /// Two touching spheres of one colour in one feature (merged) are told
     /// apart when each view's outline is two sphere cones (fitRoundParts()
     /// with two parts) that pair up across the views within this RMS
@@ -202,6 +210,12 @@ double holeEvidence(const cv::Vec2d& offsetLog, const cv::Vec2d& noiseLog, const
 /// Whether a hole in a round silhouette of @p type is made by something in
 /// front of the target (CompletenessLimits::minHolePx says when).
 bool foreignHole(const Silhouette::Hole& hole, const TargetType& type, const CompletenessLimits& limits);
+
+/// Whether a composite's head lies where its type's does: seen in both
+/// views (@p separation: the distance of its centre from the body's over
+/// the sum of their radii, none when a view lacks it) and sunk into its
+/// body, within the limits' minPartSeparation..maxPartSeparation.
+bool headSunk(const std::optional<double>& separation, const CompletenessLimits& limits);
 
 /// Whether an object seen in view @p side only (its box @p box, its
 /// members' types @p memberTypes) lies behind a target whose disparity

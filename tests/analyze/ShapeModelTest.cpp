@@ -1251,6 +1251,22 @@ TEST(Completeness, AHoleIsJudgedPastTheFilterOnTheRatioThatCutIt) {
     EXPECT_FALSE(hole(6, 0.0, 0.45, 0.02, 0.01)) << "too near the target's colour";
 }
 
+// The shape decides for a composite type (decideByShape(), decideForOwn())
+// only where its head lies as a duck's does: seen in both views, its centre
+// 0.6 of the two radii from the body's. A second part at the body's centre
+// (0.09: a far orange sphere's ragged outline fitted twice, taken for a whole
+// yellow duck in a trial) is no head, nor is one beside the body (1: two
+// touching spheres).
+TEST(Completeness, ACompositesHeadLiesWhereADucksDoes) {
+    const detail::CompletenessLimits limits;
+    EXPECT_TRUE(detail::headSunk(0.6, limits)) << "a duck's";
+    EXPECT_TRUE(detail::headSunk(0.41, limits)) << "the nearest seen on the trust report's seeds";
+    EXPECT_TRUE(detail::headSunk(0.73, limits)) << "the farthest seen";
+    EXPECT_FALSE(detail::headSunk(0.09, limits)) << "the body fitted twice";
+    EXPECT_FALSE(detail::headSunk(1.0, limits)) << "two spheres that touch";
+    EXPECT_FALSE(detail::headSunk(std::nullopt, limits)) << "not seen in both views";
+}
+
 // A duck found in haze by a round type's filter has its holes judged as
 // that filter's round targets' are, but one of its own parts of another
 // colour is no speck in front: ownPartHole() tells them by the side of the
