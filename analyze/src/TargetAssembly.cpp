@@ -100,6 +100,9 @@ struct ViewVerdict {
     bool modelUsable{false};
     bool cut{false}, hidden{false}, merged{false};
     bool contact{false};    ///< touches another target (to be judged by depth)
+    /// Round: outline points at another target where no bin is at it (a
+    /// glancing contact), judged only against a sphere (Built::glancing).
+    bool glancing{false};
     /// Complete but for bins at fragments, which the other view must show
     /// to lie behind it (assemble()): where those bins met them.
     bool atFragment{false};
@@ -378,6 +381,29 @@ std::vector<ColorTest> nearTests(const std::vector<TargetType>& types, int depth
     return tests;
 }
 
+/// @p types with their ratio ranges narrowed to the colour their veil or
+/// water acts on (the target's own in clear water; the veil's where both
+/// name one), R/B and brightness unbounded: what a target of the type may
+/// look like through water and veil, without what a trained box takes in
+/// besides (edge pixels, a composite's part of another colour). A type
+/// naming no such colour keeps its ranges.
+std::vector<TargetType> clearColourTypes(std::vector<TargetType> types) {
+    for (TargetType& t : types) {
+        const auto clear = [&t](auto Veil::*veilRange, auto Water::*waterRange) {
+            if (t.veil && (*t.veil).*veilRange) return (*t.veil).*veilRange;
+            return t.water ? (*t.water).*waterRange : std::nullopt;
+        };
+        const std::optional<Range> redGreen = clear(&Veil::redGreen, &Water::redGreen);
+        const std::optional<Range> blueGreen = clear(&Veil::blueGreen, &Water::blueGreen);
+        if (!redGreen && !blueGreen) continue;
+        t.redGreen = redGreen.value_or(t.redGreen);
+        t.blueGreen = blueGreen.value_or(t.blueGreen);
+        t.redBlue = Range{0.0, 1e9};
+        t.brightness.reset();
+    }
+    return types;
+}
+
 }  // namespace
 
 bool behindByAbsence(const AnalysisFrame& frame, const MatchConfig& match, const std::vector<TargetType>& types,
@@ -541,6 +567,7 @@ TargetAssembler::TargetAssembler(const AvatarConfig& config, CompletenessLimits 
     nearBitDepth_ = config.camera.bitDepth;
     nearDepth_ = nearBitDepth_ > 8 ? CV_16U : CV_8U;
     nearTests_ = nearTests(config.targets.targets, nearDepth_, nearBitDepth_);
+    clearTests_ = nearTests(clearColourTypes(config.targets.targets), nearDepth_, nearBitDepth_);
     hazeTests_ = hazeTests(config.targets.targets, limits_.minHazeShare, nearDepth_, nearBitDepth_);
 }
 
@@ -558,19 +585,27 @@ std::vector<bool> TargetAssembler::typesNear(const cv::Vec3f& bgr, int depth, in
 
 std::vector<bool> TargetAssembler::rivals(const cv::Vec3f& bgr, std::size_t own, int depth, int bitDepth,
                                           std::vector<bool>* hazy) const {
-    std::vector<bool> out = typesNear(bgr, depth, bitDepth);
+    // Near the colours another type's target may have (its clear colour
+    // through the water and its veil), not its trained box: yellow's, trained
+    // on ducks with their orange beaks, reaches R/G 2.8 (trust_report), where
+    // an orange's mean colour lies (an orange sphere under water, next to
+    // yellow's box in B/G alone, was ambiguous).
+    const bool configured = depth == nearDepth_ && bitDepth == nearBitDepth_;
+    const int bits = depth == CV_16U ? bitDepth : 8;
+    std::vector<bool> out =
+        configured ? near(clearTests_, bgr, fullScale(depth, bitDepth), limits_.typeMarginLog)
+                   : detail::typesNear(clearColourTypes(config_.targets.targets), bgr, depth, bitDepth,
+                                       limits_.typeMarginLog);
     if (own < out.size()) out[own] = false;
     if (hazy) hazy->assign(out.size(), false);
     // Another type's colour in thicker haze than its filter takes (a yellow
     // duck in haze lies where orange's ranges reach, seed 34 of the trust
     // report: taken for a whole orange sphere).
-    const bool configured = depth == nearDepth_ && bitDepth == nearBitDepth_;
     const std::vector<std::vector<ColorTest>> other =
         configured ? std::vector<std::vector<ColorTest>>{}
-                   : hazeTests(config_.targets.targets, limits_.minHazeShare, depth,
-                               depth == CV_16U ? bitDepth : 8);
+                   : hazeTests(config_.targets.targets, limits_.minHazeShare, depth, bits);
     const std::vector<std::vector<ColorTest>>& tests = configured ? hazeTests_ : other;
-    const double full = fullScale(depth, depth == CV_16U ? bitDepth : 8);
+    const double full = fullScale(depth, bits);
     for (std::size_t t = 0; t < tests.size() && t < out.size(); ++t) {
         if (t == own || tests[t].empty() || (out[t] && !hazy)) continue;
         const std::vector<bool> passed = near(tests[t], bgr, full, 0.0);
@@ -748,6 +783,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         std::size_t target;
         cv::Rect box[2];
         bool contact[2];
+        bool glancing[2];  ///< Built::glancing
         std::array<std::vector<Unseen>, 2> fragments;  ///< Built::fragments
         bool contactOffBody[2];  ///< Built::contactOffBody
         int group;  ///< targets of one feature pair (splitMerged()) judge each other themselves
@@ -776,8 +812,8 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             for (Built& one : split) {
                 out.push_back(std::move(one.target));
                 placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {one.contact[0], one.contact[1]},
-                                  std::move(one.fragments), {one.contactOffBody[0], one.contactOffBody[1]}, group,
-                                  one.sphereRadiusMm});
+                                  {one.glancing[0], one.glancing[1]}, std::move(one.fragments),
+                                  {one.contactOffBody[0], one.contactOffBody[1]}, group, one.sphereRadiusMm});
             }
         }
         for (std::size_t o = 0; o < left.size(); ++o)
@@ -829,8 +865,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                                       << (side == 0 ? "left" : "right") << " view, "
                                       << (behind ? "all behind it: not occluded there" : "not all behind it: occluded there");
             }
-            if (!a.contact[side]) continue;
+            const bool glancing = !a.contact[side] && a.glancing[side];
+            if (!a.contact[side] && !glancing) continue;
             bool nearer = ta.positionVisionMm.has_value();
+            bool hiddenBySphere = false;  // a sphere it touches lies in front (glancing: only that counts)
             bool any = false;
             std::ostringstream why;  // for the debug log
             for (const Placed& b : placed) {
@@ -858,9 +896,13 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                     const auto behind = hiddenBehindSphere(pa, a.sphereRadiusMm, pb, b.sphereRadiusMm,
                                                            cameras[static_cast<std::size_t>(side)], focalPx,
                                                            limits_.maxSplitOverlapPx);
-                    if (behind.value_or(false)) nearer = false;
+                    if (behind.value_or(false)) {
+                        nearer = false;
+                        hiddenBySphere = true;
+                    }
                     continue;
                 }
+                if (glancing) continue;  // the margin below would take mixed edge pixels for a contact
                 // A neighbour placed by the centroids of an incomplete
                 // silhouette may be off in depth by what is missing: up to
                 // half its radius in one image's centroid, z^2 dx / (f b) in
@@ -892,6 +934,16 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                         why << " " << tb.type << " at z " << tb.positionVisionMm->z << " (this one "
                             << ta.positionVisionMm->z << ", margin " << margin << " mm)";
                 }
+            }
+            if (glancing) {
+                if (hiddenBySphere) {
+                    ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
+                    if (log4cpp::Category& log = logger(); log.isDebugEnabled())
+                        log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
+                                          << ": at a sphere in front of it in the " << (side == 0 ? "left" : "right")
+                                          << " view, at no bin of its outline: occluded there";
+                }
+                continue;
             }
             // Touching no stereo target, only objects this view alone shows:
             // each is behind this one if the other view, where it would
@@ -1091,6 +1143,12 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // three such targets flagged whole, 2-11 px hidden), and a
             // nearer target stays whole under the depth rule.
             v.contact = v.round.hidden + v.round.seam > 0;
+            // Outline points at another target where no bin is: a sliver's
+            // chord shallower than the fit's tolerance leaves its bins
+            // supported (an orange sphere 12.6 px behind a magenta sphere
+            // in one view, trust_report seed 31), but so do the mixed pixels
+            // of a neighbour's edge. Only a sphere's cone says which.
+            v.glancing = !v.contact && sil.contactPoints > 0;
             // Two round targets in one feature: a waist on either side (or
             // points well outside any one ellipse).
             const double minorRadius = 0.5 * std::min(v.fit.ideal.size.width, v.fit.ideal.size.height);
@@ -1355,6 +1413,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         if (v.hidden) target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
         if (v.merged) target.flags |= kTargetMerged;
         built.contact[s] = v.contact;  // judged by depth in assemble()
+        built.glancing[s] = v.glancing;
         if (v.atFragment) {
             // The fragments the bins met (not every one around it: specks of
             // the filters' noise in haze, which explain nothing here).

@@ -315,6 +315,10 @@ private:
     struct Built {
         VisionTarget target;
         bool contact[2]{false, false};
+        /// Per view, a round target's outline points at another target
+        /// where no bin of its model is (no contact): hidden there only by
+        /// a sphere whose cone lies in front of its own (assemble()).
+        bool glancing[2]{false, false};
         /// Per view: complete but for bins at these fragments, each of which
         /// the other view must show to lie behind it; empty: none.
         std::array<std::vector<Unseen>, 2> fragments;
@@ -345,7 +349,9 @@ private:
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
     std::vector<bool> typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const;
     /// The types other than @p own whose colour a colour of type @p own may
-    /// as well be: within the margin of their filters, or seen through
+    /// as well be: within the margin of the colours their targets may have
+    /// (clearColourTypes(): their clear colour through their water and
+    /// veil, not their trained ranges where those are wider), or seen through
     /// thicker haze than their filters take (minHazeShare). With @p hazy,
     /// also the types whose colour seen through any share of their veil is
     /// this colour (Built::hazeRivals).
@@ -396,6 +402,9 @@ private:
     /// typesNear()'s colour tests, for samples of the configured camera.
     int nearDepth_{-1}, nearBitDepth_{0};
     std::vector<ColorTest> nearTests_;
+    /// The same for the colours each type's target may have (its clear
+    /// colour through its water and veil): rivals()'.
+    std::vector<ColorTest> clearTests_;
     /// For each type with a veil, its clear colour moved towards the veil by
     /// up to kHazeShareMax and by up to minHazeShare (nothing else), for
     /// the configured camera's samples; empty for a type without one.

@@ -19,6 +19,9 @@ namespace {
 
 const cv::Point3d kOrangeMm(60.0, -40.0, 2200.0);
 const cv::Point3d kGreenMm(-150.0, 60.0, 1200.0);
+/// Below the far orange's B/G (0.095 with render seed 3), within the type
+/// margin (0.1 in log) of it.
+constexpr double kYellowBlueGreenMax = 0.088;
 
 render::TargetSpec sphere(const std::string& name, const std::string& type, const cv::Point3d& centre,
                           const render::Rgb& albedo) {
@@ -102,6 +105,48 @@ TEST(WaterScene, WithTheWaterItIsWholeWhereItIsAndNothingElseIsOrange) {
         }
         EXPECT_EQ(orange, 1);
         EXPECT_EQ(green, 1);
+    }
+}
+
+// A type's trained ranges may take in what no target of it looks like
+// (yellow's, trained on ducks with their orange beaks, reach R/G 2.8 in the
+// trust report): the far orange's mean colour lies within the type margin
+// of such a "yellow" box, in B/G alone, and was ambiguous. Named for the
+// colour its water acts on (its clear colour), yellow's targets cannot
+// look so through any of the site's water: the orange is decided, whole.
+AvatarConfig withYellow(bool clearColour) {
+    AvatarConfig c = config(true);
+    TargetType yellow = c.targets.targets[0];
+    yellow.name = "yellow";
+    yellow.redGreen = {0.1, 2.9};
+    yellow.blueGreen = {0.033, kYellowBlueGreenMax};
+    yellow.water = Water{{0.3, 0.03, 0.12}, 5.0, std::nullopt, std::nullopt};
+    if (clearColour) {
+        yellow.water->redGreen = Range{1.15, 1.42};
+        yellow.water->blueGreen = Range{0.05, 0.062};
+    }
+    c.targets.targets.push_back(yellow);
+    validateConfig(c);
+    return c;
+}
+
+TEST(WaterScene, AColourNoTargetOfAnotherTypeCanHaveThroughTheWaterIsNotAmbiguous) {
+    for (const bool clearColour : {false, true}) {
+        SCOPED_TRACE(clearColour ? "yellow's clear colour named" : "yellow's ranges alone");
+        const AvatarConfig c = withYellow(clearColour);
+        render::RenderOptions options;
+        options.seed = 3;
+        const render::RenderResult r = render::render(underWater(), c.stereo, options);
+        int orange = 0;
+        for (const VisionTarget& v : AnalyzeStereoImagePair(c).analyze(r.pair, 1).targets) {
+            if (v.type != "orange" || !(v.flags & kTargetStereo)) continue;
+            ++orange;
+            ASSERT_TRUE(v.positionVisionMm);
+            EXPECT_LT(cv::norm(*v.positionVisionMm - kOrangeMm), 3.0);
+            EXPECT_EQ(bool(v.flags & kTargetAmbiguous), !clearColour) << v.flags;
+            EXPECT_EQ(bool(v.flags & kTargetWhole), clearColour) << v.flags;
+        }
+        EXPECT_EQ(orange, 1);
     }
 }
 
