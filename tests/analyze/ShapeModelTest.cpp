@@ -895,7 +895,7 @@ TEST(Completeness, AFarSphereGrazingANearOneIsHiddenByItsSliver) {
     const cv::Vec3d a(-60.0, 20.0, 700.0);
     const double ra = 30.0, rb = 35.0, rangeB = 1800.0;
     const cv::Vec3d toA = a / cv::norm(a);
-    int slivers = 0, fronts = 0;
+    int slivers = 0;
     for (const double overlap : {0.0004, 0.0007, 0.001, 0.0013, 0.0016}) {
         // b's direction: a's, turned in the plane of a's ray and the image's
         // x axis by the two cones' half angles less the overlap (rad).
@@ -908,7 +908,6 @@ TEST(Completeness, AFarSphereGrazingANearOneIsHiddenByItsSliver) {
         const Outcome o = run(scene, cfg, 11);
         const auto va = o.of("a"), vb = o.of("b");
         ASSERT_TRUE(va && vb) << "overlap " << overlap;
-        ++fronts;
         EXPECT_TRUE(va->flags & kTargetWhole) << "overlap " << overlap << ": " << flagsOf(va);
         const render::TargetTruth& tb = o.truth.target("b");
         for (int s = 0; s < 2; ++s) {
@@ -922,7 +921,6 @@ TEST(Completeness, AFarSphereGrazingANearOneIsHiddenByItsSliver) {
             EXPECT_FALSE(vb->flags & kTargetWhole) << "overlap " << overlap;
         }
     }
-    EXPECT_EQ(fronts, 5);
     EXPECT_GE(slivers, 2) << "the poses must hide slivers of 2-20 px";
 }
 

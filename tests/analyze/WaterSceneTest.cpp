@@ -71,14 +71,16 @@ AvatarConfig config(bool water) {
     return c;
 }
 
-VisionTargets analyse(bool water, std::uint64_t seed = 3) {
-    const AvatarConfig c = config(water);
+/// The water scene (render seed @p seed) analysed with @p c.
+VisionTargets analyse(const AvatarConfig& c, std::uint64_t seed = 3) {
     render::RenderOptions options;
     options.seed = seed;
     const render::RenderResult r = render::render(underWater(), c.stereo, options);
     AnalyzeStereoImagePair analysis(c);
     return analysis.analyze(r.pair, 1);
 }
+
+VisionTargets analyse(bool water, std::uint64_t seed = 3) { return analyse(config(water), seed); }
 
 TEST(WaterScene, WithoutTheWaterTheFarOrangeSphereIsNotWhole) {
     for (const VisionTarget& v : analyse(false).targets) {
@@ -133,12 +135,8 @@ AvatarConfig withYellow(bool clearColour) {
 TEST(WaterScene, AColourNoTargetOfAnotherTypeCanHaveThroughTheWaterIsNotAmbiguous) {
     for (const bool clearColour : {false, true}) {
         SCOPED_TRACE(clearColour ? "yellow's clear colour named" : "yellow's ranges alone");
-        const AvatarConfig c = withYellow(clearColour);
-        render::RenderOptions options;
-        options.seed = 3;
-        const render::RenderResult r = render::render(underWater(), c.stereo, options);
         int orange = 0;
-        for (const VisionTarget& v : AnalyzeStereoImagePair(c).analyze(r.pair, 1).targets) {
+        for (const VisionTarget& v : analyse(withYellow(clearColour)).targets) {
             if (v.type != "orange" || !(v.flags & kTargetStereo)) continue;
             ++orange;
             ASSERT_TRUE(v.positionVisionMm);
