@@ -29,6 +29,12 @@ log4cpp::Category& logger() {
 }
 
 constexpr std::size_t kInterestPoints = 9;
+/// RepeatMatchPolicy::Reassign: the longest augmenting path, in left features,
+/// and how many of each left feature's best admissible right features it may
+/// take (its own among them). Bounded so that a scene full of look-alikes
+/// costs at most a few dozen path steps per voided left feature.
+constexpr int kMaxPathLefts = 3;
+constexpr std::size_t kPathOptions = 4;
 constexpr std::size_t kPairs = kInterestPoints * (kInterestPoints - 1) / 2;  // 36
 
 /// M and S of Figure 3-14 for the unordered pairs i < j. The thesis fills the
@@ -270,17 +276,25 @@ public:
             pending_.push_back({j, 0.0});
     }
 
-    std::vector<FeatureMatch> finish(MatchMethod method) {
+    /// Resolves the last left feature, applies HandleRepeatMatches and, with
+    /// RepeatMatchPolicy::Reassign, re-pairs the voided left features along
+    /// augmenting paths (reassign()). @p source enumerates a left feature's
+    /// geometric candidates again: source.forEach(i, emit).
+    template <typename Source>
+    std::vector<FeatureMatch> finish(MatchMethod method, Source& source) {
         resolve();
         std::size_t voided = 0;
         std::vector<FeatureMatch> matches = handleRepeatMatches(choices_, right_.size(), voided);
+        std::size_t reassigned = 0;
+        if (voided > 0 && config_.repeats == RepeatMatchPolicy::Reassign)
+            reassigned = reassign(matches, source);
         log4cpp::Category& log = logger();
         if (log.isDebugEnabled()) {
             std::ostringstream msg;
             msg << "SIPFeatureMatcher " << methodName(method) << ": " << left_.size() << " left, "
                 << right_.size() << " right, " << candidates_ << " candidate pairs, "
                 << shapeErrors_ << " shape errors computed, " << matches.size() << " matches, "
-                << voided << " voided repeats";
+                << voided << " voided repeats, " << reassigned << " of them re-paired";
             log.debug(msg.str());
         }
         return matches;
@@ -291,6 +305,143 @@ private:
         int right;
         double bound;  ///< shapeErrorLowerBound() with the left feature current_
     };
+
+    /// An admissible right feature of a left feature and its shape error.
+    struct Option {
+        int right;
+        double error;
+    };
+
+    /// An augmenting path: lefts[0] (a voided left feature) takes rights[0];
+    /// each lefts[k] (k > 0) is the one holding rights[k - 1] and moves to
+    /// rights[k]; the last right feature is free.
+    struct Path {
+        std::array<int, kMaxPathLefts> lefts{};
+        std::array<int, kMaxPathLefts> rights{};
+        std::array<double, kMaxPathLefts> errors{};
+        int length{0};
+        double cost{0.0};  ///< shape error added: errors[0] + sum over k > 0 of (errors[k] - held)
+        /// Less cost; equal costs: fewer moves, then the lower right indices.
+        bool before(const Path& o) const {
+            if (cost != o.cost) return cost < o.cost;
+            if (length != o.length) return length < o.length;
+            return std::lexicographical_compare(rights.begin(), rights.begin() + length,
+                                                o.rights.begin(), o.rights.begin() + o.length);
+        }
+    };
+
+    /// The kPathOptions best admissible right features of left feature i
+    /// (geometry, area ratio, shape error <= maxError), in order of (error,
+    /// right index); computed on first need. As resolve() does, candidates
+    /// are taken in order of their lower bound, and those whose bound cannot
+    /// beat the worst kept are not evaluated: the same options as evaluating
+    /// every candidate, bit for bit.
+    template <typename Source>
+    const std::vector<Option>& optionsOf(std::size_t i, Source& source) {
+        if (options_.empty()) {
+            options_.resize(left_.size());
+            optionsKnown_.assign(left_.size(), false);
+        }
+        std::vector<Option>& options = options_[i];
+        if (optionsKnown_[i]) return options;
+        optionsKnown_[i] = true;
+        const ShapeMatchConfig& shape = config_.shape;
+        const ShapeDescriptor leftShape = describe(left_[i]);
+        std::vector<Pending> candidates;
+        source.forEach(i, [&](int j) {
+            if (areasCompatible(left_[i], right_[static_cast<std::size_t>(j)], shape.maxAreaRatio))
+                candidates.push_back({j, shapeErrorLowerBound(leftShape, rightShape(j), shape)});
+        });
+        std::sort(candidates.begin(), candidates.end(), [](const Pending& a, const Pending& b) {
+            return a.bound < b.bound || (a.bound == b.bound && a.right < b.right);
+        });
+        const auto before = [](const Option& a, const Option& b) {
+            return a.error < b.error || (a.error == b.error && a.right < b.right);
+        };
+        for (const Pending& c : candidates) {
+            // Later candidates' bounds are no lower: none of them can enter.
+            if (c.bound > shape.maxError) break;
+            const bool full = options.size() == kPathOptions;
+            if (full && c.bound > options.back().error) break;
+            const double limit = full ? std::min(shape.maxError, options.back().error) : shape.maxError;
+            ++shapeErrors_;
+            const Option o{c.right, shapeErrorOf(leftShape, rightShape(c.right), shape, limit)};
+            if (o.error > shape.maxError || (full && !before(o, options.back()))) continue;
+            if (full) options.pop_back();
+            options.insert(std::upper_bound(options.begin(), options.end(), o, before), o);
+        }
+        return options;
+    }
+
+    /// RepeatMatchPolicy::Reassign: each voided left feature u, in left order,
+    /// takes the best augmenting path (Path::before) of at most kMaxPathLefts
+    /// left features, if it has one: u takes one of its options (optionsOf());
+    /// where another left feature holds it, that one moves to one of its own
+    /// options, and so on, until a right feature no match holds is reached. Every left feature that had a match keeps one, and
+    /// every pair stays admissible; a left image that took a look-alike's
+    /// right image gives it back to its owner and takes its own. Returns the
+    /// number of left features re-paired; @p matches stays in left order.
+    template <typename Source>
+    std::size_t reassign(std::vector<FeatureMatch>& matches, Source& source) {
+        std::vector<int> owner(right_.size(), -1);
+        std::vector<int> held(left_.size(), -1);
+        std::vector<double> heldError(left_.size(), 0.0);
+        for (const FeatureMatch& m : matches) {
+            owner[static_cast<std::size_t>(m.right)] = m.left;
+            held[static_cast<std::size_t>(m.left)] = m.right;
+            heldError[static_cast<std::size_t>(m.left)] = m.shapeError;
+        }
+        std::size_t reassigned = 0;
+        for (std::size_t u = 0; u < left_.size(); ++u) {
+            if (choices_[u].right < 0 || held[u] >= 0) continue;  // no candidate, or matched
+            Path best;
+            Path path;
+            // Extends path (its first k steps set) with the options of the
+            // left feature at step k. The last step can only take a free
+            // right feature, and the first free one in (error, index) order
+            // is the best completion: the others are not looked at.
+            const auto extend = [&](auto& self, int k) -> void {
+                const auto step = static_cast<std::size_t>(k);
+                const auto lk = static_cast<std::size_t>(path.lefts[step]);
+                const double before = path.cost;
+                const bool last = k + 1 == kMaxPathLefts;
+                for (const Option& o : optionsOf(lk, source)) {
+                    if (k > 0 && o.right == held[lk]) continue;  // its own right feature
+                    const int next = owner[static_cast<std::size_t>(o.right)];
+                    if (next >= 0 && last) continue;
+                    const auto inPath = path.lefts.begin() + k + 1;
+                    if (next >= 0 && std::find(path.lefts.begin(), inPath, next) != inPath) continue;
+                    path.rights[step] = o.right;
+                    path.errors[step] = o.error;
+                    path.cost = k == 0 ? o.error : before + (o.error - heldError[lk]);
+                    path.length = k + 1;
+                    if (next < 0) {
+                        if (best.length == 0 || path.before(best)) best = path;
+                        if (last) break;
+                    } else {
+                        path.lefts[step + 1] = next;
+                        self(self, k + 1);
+                    }
+                }
+                path.cost = before;
+            };
+            path.lefts[0] = static_cast<int>(u);
+            extend(extend, 0);
+            if (best.length == 0) continue;
+            for (int k = 0; k < best.length; ++k) {
+                const auto step = static_cast<std::size_t>(k);
+                const auto l = static_cast<std::size_t>(best.lefts[step]);
+                held[l] = best.rights[step];
+                heldError[l] = best.errors[step];
+                owner[static_cast<std::size_t>(best.rights[step])] = best.lefts[step];
+            }
+            ++reassigned;
+        }
+        matches.clear();
+        for (std::size_t i = 0; i < left_.size(); ++i)
+            if (held[i] >= 0) matches.push_back({static_cast<int>(i), held[i], heldError[i]});
+        return reassigned;
+    }
 
     /// Steps 2-4 above for the left feature current_.
     void resolve() {
@@ -361,6 +512,8 @@ private:
     std::vector<Pending> pending_;
     std::size_t candidates_{0};
     std::size_t shapeErrors_{0};
+    std::vector<std::vector<Option>> options_;  ///< optionsOf(), for reassign()
+    std::vector<bool> optionsKnown_;
 };
 
 std::vector<cv::Point2d> centroids(const std::vector<Feature>& features) {
@@ -369,6 +522,167 @@ std::vector<cv::Point2d> centroids(const std::vector<Feature>& features) {
     for (const Feature& f : features) c.push_back(f.centroid);
     return c;
 }
+
+/// The geometric candidates of the configured method (see the header):
+/// forEach(i, emit) calls emit(j) once for every right feature j that the
+/// method's geometry admits for left feature i. Built once per match() call;
+/// a left feature may be asked for again (MatchRun::reassign()).
+class CandidateSource {
+public:
+    CandidateSource(const MatchConfig& match, const StereoCoordinateCalculator& calculator,
+                    const cv::Matx33d& fundamental, const std::vector<Feature>& left,
+                    const std::vector<Feature>& right)
+        : match_(match),
+          calculator_(calculator),
+          left_(left),
+          right_(right),
+          seen_(right.size(), 0) {
+        const StereoGeometry& stereo = calculator.geometry();
+        if (match.method == MatchMethod::EpipolarBox) {
+            rightPoints_ = centroids(right);
+        } else if (match.method == MatchMethod::EpipolarLine) {
+            // Undistorted normalised coordinates of the right centroids and
+            // their undistorted pixels K_r x_n.
+            rightNormalized_.reserve(right.size());
+            rightPoints_.reserve(right.size());
+            for (const Feature& f : right) {
+                rightNormalized_.push_back(normalizePixel(stereo.right, f.centroid));
+                rightPoints_.push_back(normalizedToPixel(stereo.right, rightNormalized_.back()));
+            }
+            rotation_ = rotationMatrix(stereo.rightTLeft);
+            translation_ = translationVector(stereo.rightTLeft);
+            kLeft_ = cameraMatrix(stereo.left);
+            kRight_ = cameraMatrix(stereo.right);
+            fundamental_ = fundamental;
+        }
+        grid_ = detail::PointGrid(rightPoints_);
+    }
+
+    template <typename Emit>
+    void forEach(std::size_t i, Emit&& emit) {
+        switch (match_.method) {
+            case MatchMethod::Shape:
+                // Figure 3-15, FindBestMatch: every right feature with x_left > x_right.
+                for (std::size_t j = 0; j < right_.size(); ++j)
+                    if (left_[i].centroid.x > right_[j].centroid.x) emit(static_cast<int>(j));
+                return;
+            case MatchMethod::EpipolarBox:
+                boxCandidates(i, emit);
+                return;
+            case MatchMethod::EpipolarLine:
+                lineCandidates(i, emit);
+                return;
+        }
+    }
+
+private:
+    /// Figure 3-16: the right centroid lies in the box
+    /// (x_l - dxMax, x_l - dxMin) x (y_l - dyMax, y_l - dyMin).
+    template <typename Emit>
+    void boxCandidates(std::size_t i, Emit& emit) const {
+        const cv::Point2d& l = left_[i].centroid;
+        grid_.query(l.x - match_.boxDxMax, l.y - match_.boxDyMax, l.x - match_.boxDxMin,
+                    l.y - match_.boxDyMin, [&](int j) {
+                        const cv::Point2d& r = rightPoints_[static_cast<std::size_t>(j)];
+                        const double dx = l.x - r.x;
+                        const double dy = l.y - r.y;
+                        if (match_.boxDxMin < dx && dx < match_.boxDxMax && match_.boxDyMin < dy &&
+                            dy < match_.boxDyMax)
+                            emit(j);
+                    });
+    }
+
+    template <typename Emit>
+    void lineCandidates(std::size_t i, Emit& emit) {
+        const StereoGeometry& stereo = calculator_.geometry();
+        const double maxDistance = match_.maxEpipolarDistancePx;
+        // Candidates lie within this margin of the depth range's segment of
+        // the epipolar line (the query covers exactly that band); it is wider
+        // than the distance limit, so that a midpoint-triangulated depth just
+        // inside the range is not lost.
+        const double margin = 2.0 * maxDistance + 2.0;
+        const cv::Point2d xl = normalizePixel(stereo.left, left_[i].centroid);
+        const cv::Vec3d pl = kLeft_ * cv::Vec3d(xl.x, xl.y, 1.0);
+        cv::Vec3d line = fundamental_ * pl;
+        const double norm = std::hypot(line[0], line[1]);
+        if (!(norm > 0.0)) return;  // the left point is the epipole: no line
+        line /= norm;
+
+        // The ray X = Z d (left depth Z) seen from the right camera:
+        // X_r(Z) = Z R d + T, in front of it while Z (Rd)_z + T_z > 0.
+        const cv::Vec3d Rd = rotation_ * cv::Vec3d(xl.x, xl.y, 1.0);
+        const cv::Vec3d& T = translation_;
+        double zNear = match_.minRangeMm;
+        double zFar = match_.maxRangeMm;
+        constexpr double kMinRightDepthMm = 1e-3;
+        if (Rd[2] > 0.0)
+            zNear = std::max(zNear, (kMinRightDepthMm - T[2]) / Rd[2]);
+        else if (Rd[2] < 0.0)
+            zFar = std::min(zFar, (T[2] - kMinRightDepthMm) / -Rd[2]);
+        else if (!(T[2] > kMinRightDepthMm))
+            return;
+        if (!(zNear < zFar)) return;
+        const auto project = [&](double z) {
+            const cv::Vec3d h = kRight_ * (z * Rd + T);
+            return cv::Point2d(h[0] / h[2], h[1] / h[2]);
+        };
+        // The depth range's segment of the epipolar line, clipped to the
+        // grid (widened by the margin) and walked in pieces about one grid
+        // cell long.
+        cv::Point2d a = project(zNear);
+        cv::Point2d b = project(zFar);
+        if (!std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) || !std::isfinite(b.y))
+            return;
+        const cv::Point2d segmentNear = a, segmentFar = b;
+        cv::Rect2d area = grid_.bounds();
+        area.x -= margin;
+        area.y -= margin;
+        area.width += 2.0 * margin;
+        area.height += 2.0 * margin;
+        if (!detail::clipSegment(a, b, area)) return;
+        const double length = std::hypot(b.x - a.x, b.y - a.y);
+        const int pieces = std::max(1, static_cast<int>(std::ceil(length / grid_.cellSize())));
+        const std::size_t stamp = ++stamp_;  // each walk marks what it has seen anew
+        for (int k = 0; k < pieces; ++k) {
+            const double t0 = static_cast<double>(k) / pieces;
+            const double t1 = static_cast<double>(k + 1) / pieces;
+            const cv::Point2d p0 = a + (b - a) * t0;
+            const cv::Point2d p1 = a + (b - a) * t1;
+            grid_.query(
+                std::min(p0.x, p1.x) - margin, std::min(p0.y, p1.y) - margin,
+                std::max(p0.x, p1.x) + margin, std::max(p0.y, p1.y) + margin, [&](int j) {
+                    const std::size_t uj = static_cast<std::size_t>(j);
+                    if (seen_[uj] == stamp) return;
+                    seen_[uj] = stamp;
+                    const cv::Point2d& q = rightPoints_[uj];
+                    const double distance = std::abs(line[0] * q.x + line[1] * q.y + line[2]);
+                    if (!(distance <= maxDistance)) return;
+                    // Near the depth range's segment, not only near the line:
+                    // nearly parallel rays (disparity ~ 0) have a meaningless
+                    // midpoint depth.
+                    if (!(detail::distanceToSegment(q, segmentNear, segmentFar) <= margin)) return;
+                    // Parallel rays have no point and are no candidate.
+                    const auto point = calculator_.triangulateNormalized(xl, rightNormalized_[uj]);
+                    if (!point) return;
+                    const double depth = point->leftMm.z;
+                    if (depth >= match_.minRangeMm && depth <= match_.maxRangeMm) emit(j);
+                });
+        }
+    }
+
+    const MatchConfig& match_;
+    const StereoCoordinateCalculator& calculator_;
+    const std::vector<Feature>& left_;
+    const std::vector<Feature>& right_;
+    /// Box: the right centroids; line: their undistorted pixels.
+    std::vector<cv::Point2d> rightPoints_;
+    std::vector<cv::Point2d> rightNormalized_;  ///< line: undistorted normalised right centroids
+    detail::PointGrid grid_{std::vector<cv::Point2d>{}};
+    cv::Matx33d rotation_, kLeft_, kRight_, fundamental_;
+    cv::Vec3d translation_;
+    std::vector<std::size_t> seen_;  ///< line: the stamp of the walk that last saw each right feature
+    std::size_t stamp_{0};
+};
 
 }  // namespace
 
@@ -386,136 +700,11 @@ std::vector<FeatureMatch> SIPFeatureMatcher::match(const std::vector<Feature>& l
     validateFeatures(left, "left");
     validateFeatures(right, "right");
     MatchRun run(match_, left, right);
-    if (left.empty() || right.empty()) return run.finish(match_.method);
-
-    switch (match_.method) {
-        case MatchMethod::Shape: {
-            // Figure 3-15, FindBestMatch: all right features, O(n_left * n_right)
-            // area tests and bounds, but few shape errors (MatchRun::end).
-            for (std::size_t i = 0; i < left.size(); ++i)
-                for (std::size_t j = 0; j < right.size(); ++j)
-                    if (left[i].centroid.x > right[j].centroid.x)
-                        run.consider(i, static_cast<int>(j));
-            break;
-        }
-        case MatchMethod::EpipolarBox: {
-            // Figure 3-16: the right centroid lies in the box
-            // (x_l - dxMax, x_l - dxMin) x (y_l - dyMax, y_l - dyMin).
-            const std::vector<cv::Point2d> rightCentroids = centroids(right);
-            const detail::PointGrid grid(rightCentroids);
-            for (std::size_t i = 0; i < left.size(); ++i) {
-                const cv::Point2d& l = left[i].centroid;
-                grid.query(l.x - match_.boxDxMax, l.y - match_.boxDyMax, l.x - match_.boxDxMin,
-                           l.y - match_.boxDyMin, [&](int j) {
-                               const cv::Point2d& r = rightCentroids[static_cast<std::size_t>(j)];
-                               const double dx = l.x - r.x;
-                               const double dy = l.y - r.y;
-                               if (match_.boxDxMin < dx && dx < match_.boxDxMax &&
-                                   match_.boxDyMin < dy && dy < match_.boxDyMax)
-                                   run.consider(i, j);
-                           });
-            }
-            break;
-        }
-        case MatchMethod::EpipolarLine: {
-            const StereoGeometry& stereo = calculator_.geometry();
-            // Undistorted normalised coordinates of the right centroids and
-            // their undistorted pixels K_r x_n.
-            std::vector<cv::Point2d> rightNormalized, rightIdeal;
-            rightNormalized.reserve(right.size());
-            rightIdeal.reserve(right.size());
-            for (const Feature& f : right) {
-                rightNormalized.push_back(normalizePixel(stereo.right, f.centroid));
-                rightIdeal.push_back(normalizedToPixel(stereo.right, rightNormalized.back()));
-            }
-            const detail::PointGrid grid(rightIdeal);
-            const cv::Matx33d R = rotationMatrix(stereo.rightTLeft);
-            const cv::Vec3d T = translationVector(stereo.rightTLeft);
-            const cv::Matx33d kLeft = cameraMatrix(stereo.left);
-            const cv::Matx33d kRight = cameraMatrix(stereo.right);
-            const double maxDistance = match_.maxEpipolarDistancePx;
-            // Candidates lie within this margin of the depth range's segment of
-            // the epipolar line (the query covers exactly that band); it is wider
-            // than the distance limit, so that a midpoint-triangulated depth just
-            // inside the range is not lost.
-            const double margin = 2.0 * maxDistance + 2.0;
-            std::vector<std::size_t> seen(right.size(), 0);
-
-            for (std::size_t i = 0; i < left.size(); ++i) {
-                const cv::Point2d xl = normalizePixel(stereo.left, left[i].centroid);
-                const cv::Vec3d pl = kLeft * cv::Vec3d(xl.x, xl.y, 1.0);
-                cv::Vec3d line = fundamental_ * pl;
-                const double norm = std::hypot(line[0], line[1]);
-                if (!(norm > 0.0)) continue;  // the left point is the epipole: no line
-                line /= norm;
-
-                // The ray X = Z d (left depth Z) seen from the right camera:
-                // X_r(Z) = Z R d + T, in front of it while Z (Rd)_z + T_z > 0.
-                const cv::Vec3d Rd = R * cv::Vec3d(xl.x, xl.y, 1.0);
-                double zNear = match_.minRangeMm;
-                double zFar = match_.maxRangeMm;
-                constexpr double kMinRightDepthMm = 1e-3;
-                if (Rd[2] > 0.0)
-                    zNear = std::max(zNear, (kMinRightDepthMm - T[2]) / Rd[2]);
-                else if (Rd[2] < 0.0)
-                    zFar = std::min(zFar, (T[2] - kMinRightDepthMm) / -Rd[2]);
-                else if (!(T[2] > kMinRightDepthMm))
-                    continue;
-                if (!(zNear < zFar)) continue;
-                const auto project = [&](double z) {
-                    const cv::Vec3d h = kRight * (z * Rd + T);
-                    return cv::Point2d(h[0] / h[2], h[1] / h[2]);
-                };
-                // The depth range's segment of the epipolar line, clipped to the
-                // grid (widened by the margin) and walked in pieces about one
-                // grid cell long.
-                cv::Point2d a = project(zNear);
-                cv::Point2d b = project(zFar);
-                if (!std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) ||
-                    !std::isfinite(b.y))
-                    continue;
-                const cv::Point2d segmentNear = a, segmentFar = b;
-                cv::Rect2d area = grid.bounds();
-                area.x -= margin;
-                area.y -= margin;
-                area.width += 2.0 * margin;
-                area.height += 2.0 * margin;
-                if (!detail::clipSegment(a, b, area)) continue;
-                const double length = std::hypot(b.x - a.x, b.y - a.y);
-                const int pieces =
-                    std::max(1, static_cast<int>(std::ceil(length / grid.cellSize())));
-                const std::size_t stamp = i + 1;
-                for (int k = 0; k < pieces; ++k) {
-                    const double t0 = static_cast<double>(k) / pieces;
-                    const double t1 = static_cast<double>(k + 1) / pieces;
-                    const cv::Point2d p0 = a + (b - a) * t0;
-                    const cv::Point2d p1 = a + (b - a) * t1;
-                    grid.query(
-                        std::min(p0.x, p1.x) - margin, std::min(p0.y, p1.y) - margin,
-                        std::max(p0.x, p1.x) + margin, std::max(p0.y, p1.y) + margin, [&](int j) {
-                            const std::size_t uj = static_cast<std::size_t>(j);
-                            if (seen[uj] == stamp) return;
-                            seen[uj] = stamp;
-                            const cv::Point2d& q = rightIdeal[uj];
-                            const double distance = std::abs(line[0] * q.x + line[1] * q.y + line[2]);
-                            if (!(distance <= maxDistance)) return;
-                            // Near the depth range's segment, not only near the
-                            // line: nearly parallel rays (disparity ~ 0) have a
-                            // meaningless midpoint depth.
-                            if (!(detail::distanceToSegment(q, segmentNear, segmentFar) <= margin)) return;
-                            // Parallel rays have no point and are no candidate.
-                            const auto point = calculator_.triangulateNormalized(xl, rightNormalized[uj]);
-                            if (!point) return;
-                            const double depth = point->leftMm.z;
-                            if (depth >= match_.minRangeMm && depth <= match_.maxRangeMm)
-                                run.consider(i, j);
-                        });
-                }
-            }
-            break;
-        }
-    }
-    return run.finish(match_.method);
+    CandidateSource source(match_, calculator_, fundamental_, left, right);
+    if (!left.empty() && !right.empty())
+        for (std::size_t i = 0; i < left.size(); ++i)
+            source.forEach(i, [&](int j) { run.consider(i, j); });
+    return run.finish(match_.method, source);
 }
 
 }  // namespace avatar

@@ -496,9 +496,10 @@ TargetConfig readTargets(Reader& r, const XMLElement* el, const std::string& pat
 }
 
 MatchConfig readMatch(Reader& r, const XMLElement* el, const std::string& path) {
-    const Section s(r, el, path, {"method", "box", "epipolarLine", "shape"});
+    const Section s(r, el, path, {"method", "box", "epipolarLine", "shape", "repeats"});
     MatchConfig m;
     m.method = s.get("method", readEnum<MatchMethod>);
+    s.getOptional("repeats", m.repeats, readEnum<RepeatMatchPolicy>);
 
     const bool box = m.method == MatchMethod::EpipolarBox;
     if (const XMLElement* b = box ? s.require("box", "required when <method> is epipolar_box") : s.find("box")) {

@@ -46,6 +46,14 @@ struct EnumWords<MatchMethod> {
 };
 
 template <>
+struct EnumWords<RepeatMatchPolicy> {
+    static constexpr std::array<std::pair<RepeatMatchPolicy, std::string_view>, 2> table{{
+        {RepeatMatchPolicy::Void, "void"}, {RepeatMatchPolicy::Reassign, "reassign"}}};
+    static constexpr const char* list = "void or reassign";
+    static constexpr const char* type = "RepeatMatchPolicy";
+};
+
+template <>
 struct EnumWords<ColorFilterMethod> {
     static constexpr std::array<std::pair<ColorFilterMethod, std::string_view>, 2> table{{
         {ColorFilterMethod::RgbRatio, "rgb_ratio"}, {ColorFilterMethod::Hsv, "hsv"}}};

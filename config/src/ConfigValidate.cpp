@@ -333,6 +333,7 @@ void validateMatch(const Checker& k, const MatchConfig& m) {
     }
     k.positive(m.shape.maxError, s + "/maxError");
     k.between(m.shape.maxAreaRatio, 1.0, kInf, s + "/maxAreaRatio");
+    k.enumerator(m.repeats, p + "/repeats");
 }
 
 // Physical ranges of the calibration and geometry (docs/config.md): wide

@@ -161,6 +161,7 @@ void writeMatch(Writer& w, const MatchConfig& m) {
     w.number("maxError", m.shape.maxError);
     w.number("maxAreaRatio", m.shape.maxAreaRatio);
     w.close();
+    w.text("repeats", enumWord(m.repeats).value_or("?"));
     w.close();
 }
 

@@ -351,23 +351,76 @@ TEST(Methods, IdenticalTargetsSideBySide) {
 
     // Shape alone cannot tell them apart: A sees B' and A' with error 0 and
     // takes the lower index B'; B can only take B' (A' is right of it); the
-    // tie of the repeat goes to A, and B is voided. One wrong match.
-    EXPECT_EQ(matchWith(config(MatchMethod::Shape), parallelRig(), left, right), (Pairs{{0, 0}}));
+    // tie of the repeat goes to A. Voided, B stays unmatched: one wrong match.
+    MatchConfig shapeVoid = config(MatchMethod::Shape);
+    shapeVoid.repeats = RepeatMatchPolicy::Void;
+    EXPECT_EQ(matchWith(shapeVoid, parallelRig(), left, right), (Pairs{{0, 0}}));
+    // Re-paired (the default), B takes B' back and A moves to A' (added error
+    // 0, the only path): both right.
+    EXPECT_EQ(matchWith(config(MatchMethod::Shape), parallelRig(), left, right), truth);
 
     // A box that holds the realistic disparities (50..150 px) pairs them right.
     MatchConfig box = config(MatchMethod::EpipolarBox);
     box.boxDxMin = 50.0;
     box.boxDxMax = 150.0;
     EXPECT_EQ(matchWith(box, parallelRig(), left, right), truth);
-    // The default box (0..400 px) holds both for A: the same failure as shape.
-    EXPECT_EQ(matchWith(config(MatchMethod::EpipolarBox), parallelRig(), left, right),
-              (Pairs{{0, 0}}));
+    // The default box (0..400 px) holds both for A: the same failure as shape
+    // when voided, the same cure when re-paired.
+    MatchConfig wideVoid = config(MatchMethod::EpipolarBox);
+    wideVoid.repeats = RepeatMatchPolicy::Void;
+    EXPECT_EQ(matchWith(wideVoid, parallelRig(), left, right), (Pairs{{0, 0}}));
+    EXPECT_EQ(matchWith(config(MatchMethod::EpipolarBox), parallelRig(), left, right), truth);
 
     // The epipolar line with a depth range of 600..2000 mm (50..167 px).
     MatchConfig line = config(MatchMethod::EpipolarLine);
     line.minRangeMm = 600.0;
     line.maxRangeMm = 2000.0;
     EXPECT_EQ(matchWith(line, parallelRig(), left, right), truth);
+}
+
+TEST(RepeatMatches, ALookAlikeThatTookAnotherTargetsImageGivesItBack) {
+    // Two look-alikes 250 px apart at 1000 mm (disparity 100 px), in a box of
+    // 0..400 px: A (left 0) sees its own image A' and B's image B'; B (left
+    // 1) sees B' only. A looks more like B' (error 0) than like its own A'
+    // (the right camera sees it two rows taller), and more like B' than B
+    // does, so HandleRepeatMatches gives B' to A and B loses it.
+    const Feature a = rect(680, 390, 40, 20);
+    const Feature b = rect(430, 390, 40, 19);
+    const std::vector<Feature> left = {a, b};
+    const std::vector<Feature> right = {rect(580, 391, 40, 22), shifted(a, -350, 0)};
+    MatchConfig m = config(MatchMethod::EpipolarBox);
+    const ShapeMatchConfig& w = m.shape;
+    ASSERT_EQ(shapeError(a, right[1], w), 0.0);
+    ASSERT_LT(shapeError(a, right[1], w), shapeError(b, right[1], w));
+    ASSERT_LT(shapeError(a, right[1], w), shapeError(a, right[0], w));
+
+    m.repeats = RepeatMatchPolicy::Void;
+    const Pairs voided = matchWith(m, parallelRig(), left, right);
+    EXPECT_EQ(voided, (Pairs{{0, 1}}));  // a wrong pair, and B unmatched
+
+    m.repeats = RepeatMatchPolicy::Reassign;
+    const Pairs repaired = matchWith(m, parallelRig(), left, right);
+    ASSERT_EQ(repaired, (Pairs{{0, 0}, {1, 1}}));
+    EXPECT_EQ(repaired[0].shapeError, shapeError(a, right[0], w));
+    EXPECT_EQ(repaired[1].shapeError, shapeError(b, right[1], w));
+}
+
+TEST(RepeatMatches, NoPathLeavesTheLoserUnmatchedAndKeepsEveryOtherPair) {
+    // Three left features claim one right feature; the two losers have no
+    // other candidate, so re-pairing adds nothing, and an unrelated pair
+    // elsewhere is untouched.
+    const Feature target = rect(500, 400, 40, 20);
+    const Feature other = ellipse(900, 700, 12, 12);
+    const std::vector<Feature> left = {rect(609, 400, 42, 20), shifted(target, 100, 0),
+                                       rect(611, 400, 44, 20), shifted(other, 100, 0)};
+    const std::vector<Feature> right = {target, other};
+    MatchConfig m = config(MatchMethod::EpipolarBox);
+    m.boxDxMin = 50.0;
+    m.boxDxMax = 150.0;
+    const Pairs expected = {{1, 0}, {3, 1}};
+    EXPECT_EQ(matchWith(m, parallelRig(), left, right), expected);
+    m.repeats = RepeatMatchPolicy::Void;
+    EXPECT_EQ(matchWith(m, parallelRig(), left, right), expected);
 }
 
 TEST(EpipolarLine, DepthRangeExcludesCandidatesOnTheLine) {
@@ -551,6 +604,8 @@ Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::v
     };
     std::vector<int> best(l.size(), -1);
     std::vector<double> bestError(l.size(), 0.0);
+    // Every admissible (right, error) of each left feature, for Reassign.
+    std::vector<std::vector<std::pair<int, double>>> admissible(l.size());
     for (std::size_t i = 0; i < l.size(); ++i) {
         std::vector<double> errors;
         for (std::size_t j = 0; j < r.size(); ++j) {
@@ -598,6 +653,7 @@ Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::v
             const double e = shapeError(l[i], r[j], m.shape);
             if (e > m.shape.maxError) continue;
             errors.push_back(e);
+            admissible[i].emplace_back(static_cast<int>(j), e);
             if (best[i] < 0 || e < bestError[i] || (e == bestError[i] && static_cast<int>(j) < best[i])) {
                 best[i] = static_cast<int>(j);
                 bestError[i] = e;
@@ -612,7 +668,9 @@ Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::v
             });
         }
     }
-    Pairs out;
+    std::vector<int> held(l.size(), -1);
+    std::vector<double> heldError(l.size(), 0.0);
+    std::vector<int> owner(r.size(), -1);
     for (std::size_t i = 0; i < l.size(); ++i) {
         if (best[i] < 0) continue;
         bool keeps = true;
@@ -620,8 +678,71 @@ Pairs bruteForce(const MatchConfig& m, const StereoSystemConfig& s, const std::v
             if (k != i && best[k] == best[i] &&
                 (bestError[k] < bestError[i] || (bestError[k] == bestError[i] && k < i)))
                 keeps = false;
-        if (keeps) out.push_back({static_cast<int>(i), best[i], bestError[i]});
+        if (!keeps) continue;
+        held[i] = best[i];
+        heldError[i] = bestError[i];
+        owner[static_cast<std::size_t>(best[i])] = static_cast<int>(i);
     }
+    if (m.repeats == RepeatMatchPolicy::Reassign) {
+        // Each left feature's four best admissible right features (error,
+        // then index); every path of one, two and three left features from
+        // each voided one, in left order; the best by (added error, length,
+        // rights).
+        for (auto& options : admissible) {
+            std::sort(options.begin(), options.end(), [](const auto& a, const auto& b) {
+                return a.second < b.second || (a.second == b.second && a.first < b.first);
+            });
+            if (options.size() > 4) options.resize(4);
+        }
+        struct Path {
+            std::array<int, 3> lefts{}, rights{};
+            std::array<double, 3> errors{};
+            std::size_t length{0};
+            double cost{0.0};
+        };
+        const auto better = [](const Path& a, const Path& b) {
+            if (a.cost != b.cost) return a.cost < b.cost;
+            if (a.length != b.length) return a.length < b.length;
+            return std::lexicographical_compare(a.rights.begin(), a.rights.begin() + a.length,
+                                                b.rights.begin(), b.rights.begin() + b.length);
+        };
+        for (std::size_t u = 0; u < l.size(); ++u) {
+            if (best[u] < 0 || held[u] >= 0) continue;
+            Path chosen;
+            const auto offer = [&](const Path& p) {
+                if (chosen.length == 0 || better(p, chosen)) chosen = p;
+            };
+            for (const auto& [r1, e1] : admissible[u]) {
+                const int v = owner[static_cast<std::size_t>(r1)];
+                if (v < 0) {
+                    offer({{int(u)}, {r1}, {e1}, 1, e1});
+                    continue;
+                }
+                for (const auto& [r2, e2] : admissible[static_cast<std::size_t>(v)]) {
+                    if (r2 == r1) continue;
+                    const double c2 = e1 + (e2 - heldError[static_cast<std::size_t>(v)]);
+                    const int w = owner[static_cast<std::size_t>(r2)];
+                    if (w < 0) {
+                        offer({{int(u), v}, {r1, r2}, {e1, e2}, 2, c2});
+                        continue;
+                    }
+                    for (const auto& [r3, e3] : admissible[static_cast<std::size_t>(w)])
+                        if (owner[static_cast<std::size_t>(r3)] < 0)
+                            offer({{int(u), v, w}, {r1, r2, r3}, {e1, e2, e3}, 3,
+                                   c2 + (e3 - heldError[static_cast<std::size_t>(w)])});
+                }
+            }
+            if (chosen.length == 0) continue;
+            for (std::size_t k = 0; k < chosen.length; ++k) {
+                held[static_cast<std::size_t>(chosen.lefts[k])] = chosen.rights[k];
+                heldError[static_cast<std::size_t>(chosen.lefts[k])] = chosen.errors[k];
+                owner[static_cast<std::size_t>(chosen.rights[k])] = chosen.lefts[k];
+            }
+        }
+    }
+    Pairs out;
+    for (std::size_t i = 0; i < l.size(); ++i)
+        if (held[i] >= 0) out.push_back({static_cast<int>(i), held[i], heldError[i]});
     return out;
 }
 
@@ -637,8 +758,75 @@ std::vector<Feature> randomFeatures(Rng& rng, int n) {
     return f;
 }
 
+TEST(RepeatMatches, AChainOfThreeMovesAlongItsOnlyPath) {
+    // Rectangles 20 px tall of widths U 20, V 24, W 28 (left) and r1 23,
+    // r2 26, r3 31 (right), all in one wide box. maxError admits only
+    // U-r1, V-r1, V-r2, W-r2 and W-r3. V takes r1 (width one off) from U,
+    // W takes r2, and U is voided; the only augmenting path is U -> r1,
+    // V -> r2, W -> r3.
+    const std::vector<Feature> left = {rect(500, 400, 20, 20), rect(560, 400, 24, 20),
+                                       rect(620, 400, 28, 20)};
+    const std::vector<Feature> right = {rect(100, 400, 23, 20), rect(160, 400, 26, 20),
+                                        rect(220, 400, 31, 20)};
+    MatchConfig m = config(MatchMethod::EpipolarBox);
+    m.boxDxMax = 600.0;
+    const auto e = [&](int l, int r) {
+        return shapeError(left[static_cast<std::size_t>(l)], right[static_cast<std::size_t>(r)], m.shape);
+    };
+    m.shape.maxError = std::max({e(0, 0), e(1, 0), e(1, 1), e(2, 1), e(2, 2)});
+    ASSERT_GT(e(0, 1), m.shape.maxError);
+    ASSERT_GT(e(0, 2), m.shape.maxError);
+    ASSERT_GT(e(1, 2), m.shape.maxError);
+    ASSERT_GT(e(2, 0), m.shape.maxError);
+    ASSERT_LT(e(1, 0), e(0, 0));  // V takes r1 from U
+    ASSERT_LT(e(1, 0), e(1, 1));
+    ASSERT_LT(e(2, 1), e(2, 2));  // W takes r2
+
+    m.repeats = RepeatMatchPolicy::Void;
+    EXPECT_EQ(matchWith(m, parallelRig(), left, right), (Pairs{{1, 0}, {2, 1}}));
+    m.repeats = RepeatMatchPolicy::Reassign;
+    const Pairs repaired = matchWith(m, parallelRig(), left, right);
+    ASSERT_EQ(repaired, (Pairs{{0, 0}, {1, 1}, {2, 2}}));
+    EXPECT_EQ(repaired[2].shapeError, e(2, 2));
+}
+
+TEST(RepeatMatches, TheLeastAddedErrorWins) {
+    // U (20 px wide) loses r1 (21) to V (22). U can take a free right
+    // feature itself (added error e(U, r3)) or take r1 and move V to the free
+    // r2 (added e(U, r1) + e(V, r2) - e(V, r1)); the path that adds less is
+    // taken.
+    const std::vector<Feature> left = {rect(500, 400, 20, 20), rect(560, 400, 22, 20)};
+    MatchConfig m = config(MatchMethod::EpipolarBox);
+    m.boxDxMax = 600.0;
+    const auto run = [&](int r2Width, int r3Width) {
+        const std::vector<Feature> right = {rect(100, 400, 21, 20), rect(160, 400, r2Width, 20),
+                                            rect(220, 400, r3Width, 20)};
+        const auto e = [&](int l, int r) {
+            return shapeError(left[static_cast<std::size_t>(l)], right[static_cast<std::size_t>(r)],
+                              m.shape);
+        };
+        // V takes r1 from U; r1 is U's first choice too.
+        EXPECT_LT(e(1, 0), e(0, 0));
+        EXPECT_LT(e(1, 0), e(1, 1));
+        EXPECT_LT(e(0, 0), e(0, 1));
+        EXPECT_LT(e(0, 0), e(0, 2));
+        const double direct = e(0, 2);
+        const double viaV = e(0, 0) + (e(1, 1) - e(1, 0));
+        return std::make_pair(direct < viaV, matchWith(m, parallelRig(), left, right));
+    };
+    // r2 as V's near twin (24 px), r3 far from U (16 px): through V.
+    const auto [directFirst, throughV] = run(24, 16);
+    EXPECT_FALSE(directFirst);
+    EXPECT_EQ(throughV, (Pairs{{0, 0}, {1, 1}}));
+    // r2 far from V (30 px), r3 next to U (19 px): U takes r3.
+    const auto [directSecond, direct] = run(30, 19);
+    EXPECT_TRUE(directSecond);
+    EXPECT_EQ(direct, (Pairs{{0, 2}, {1, 0}}));
+}
+
 TEST(CandidateGrid, CrowdedRandomScenesMatchBruteForce) {
     Rng rng{7u};
+    std::size_t repaired = 0;
     for (int trial = 0; trial < 6; ++trial) {
         const std::vector<Feature> left = randomFeatures(rng, 300);
         const std::vector<Feature> right = randomFeatures(rng, 280);
@@ -651,6 +839,12 @@ TEST(CandidateGrid, CrowdedRandomScenesMatchBruteForce) {
         const Pairs expectedBox = bruteForce(box, parallelRig(), left, right);
         EXPECT_GT(expectedBox.size(), 10u);
         EXPECT_EQ(matchWith(box, parallelRig(), left, right), expectedBox);
+        MatchConfig boxVoid = box;
+        boxVoid.repeats = RepeatMatchPolicy::Void;
+        const Pairs expectedVoid = bruteForce(boxVoid, parallelRig(), left, right);
+        EXPECT_EQ(matchWith(boxVoid, parallelRig(), left, right), expectedVoid);
+        EXPECT_GE(expectedBox.size(), expectedVoid.size());  // re-pairing only adds pairs
+        repaired += expectedBox.size() - expectedVoid.size();
 
         MatchConfig line = config(MatchMethod::EpipolarLine);
         line.maxEpipolarDistancePx = rng.uniform(0.5, 8.0);
@@ -661,6 +855,7 @@ TEST(CandidateGrid, CrowdedRandomScenesMatchBruteForce) {
         EXPECT_GT(expectedLine.size(), 5u);
         EXPECT_EQ(matchWith(line, rig, left, right), expectedLine);
     }
+    EXPECT_GT(repaired, 0u);  // crowded scenes void repeats, and some are re-paired
 }
 
 // ---------------------------------------------------------------------------
@@ -785,6 +980,9 @@ std::vector<std::pair<std::string, MatchConfig>> pruningConfigs() {
     box.boxDyMin = -25.0;
     box.boxDyMax = 40.0;
     configs.emplace_back("box scorpion.xml", box);
+    MatchConfig voided = box;
+    voided.repeats = RepeatMatchPolicy::Void;
+    configs.emplace_back("box scorpion.xml, repeats voided", voided);
     MatchConfig tight = box;
     tight.boxDxMin = 40.0;
     tight.boxDxMax = 121.0;
@@ -817,8 +1015,9 @@ TEST(CandidatePruning, LookAlikeScenesMatchBruteForceAt10_100_1000Features) {
         // one with all targets on n / 125 rows (16 line candidates).
         const LookAlikeScene free = lookAlikeScene(rng, n);
         const LookAlikeScene onRows = lookAlikeScene(rng, n, std::max(1, n / 125));
-        for (const auto& [name, m] : pruningConfigs())
+        for (const auto& [name, configured] : pruningConfigs())
             for (const LookAlikeScene* scene : {&free, &onRows}) {
+                const MatchConfig& m = configured;
                 SCOPED_TRACE(name + ", n = " + std::to_string(n) +
                              (scene == &free ? ", free" : ", on rows"));
                 BruteForceStats stats;

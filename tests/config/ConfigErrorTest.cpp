@@ -191,6 +191,8 @@ const std::vector<BadDocument> kBadDocuments = {
      "t.xml:8: /avatar/camera/bayer: expected true or false, got 'yes'"},
     {"unknown method", {{"epipolar_box", "box"}},
      "t.xml:31: /avatar/match/method: expected shape, epipolar_box or epipolar_line, got 'box'"},
+    {"unknown repeat policy", {{"<method>epipolar_box</method>", "<method>epipolar_box</method><repeats>drop</repeats>"}},
+     "t.xml:31: /avatar/match/repeats: expected void or reassign, got 'drop'"},
     {"unknown Bayer pattern", {{">BG<", ">bg<"}},
      "t.xml:9: /avatar/camera/bayerPattern: expected BG, GB, RG or GR, got 'bg'"},
     {"unknown filter", {{"<redGreen><min>0.9", "<filter>lab</filter><redGreen><min>0.9"}},
@@ -492,6 +494,8 @@ const std::vector<BadConfig> kBadConfigs = {
      "<memory>:0: /avatar/targets/target[1]/window/x: must be between 0 and 16384, got -1"},
     {"bad method", [](AvatarConfig& c) { c.match.method = static_cast<MatchMethod>(7); },
      "<memory>:0: /avatar/match/method: is not a MatchMethod value (7)"},
+    {"bad repeat policy", [](AvatarConfig& c) { c.match.repeats = static_cast<RepeatMatchPolicy>(5); },
+     "<memory>:0: /avatar/match/repeats: is not a RepeatMatchPolicy value (5)"},
     {"box reversed", [](AvatarConfig& c) { c.match.boxDxMax = -20; },
      "<memory>:0: /avatar/match/box/dx: min -12.5 is above max -20"},
     // The box is open (dxMin < dx < dxMax): equal limits admit no pair at all.

@@ -203,6 +203,7 @@ std::vector<Mutation> mutations() {
     });
 
     add("match.method", [](AvatarConfig& c) { c.match.method = MatchMethod::Shape; });
+    add("match.repeats", [](AvatarConfig& c) { c.match.repeats = RepeatMatchPolicy::Reassign; });
     add("match.boxDxMin", [](AvatarConfig& c) { c.match.boxDxMin = 37; });
     add("match.boxDxMax", [](AvatarConfig& c) { c.match.boxDxMax = 281; });
     add("match.boxDyMin", [](AvatarConfig& c) { c.match.boxDyMin = -7; });

@@ -66,6 +66,7 @@ inline AvatarConfig unusualConfig() {
     m.minRangeMm = 350;
     m.maxRangeMm = 2999.5;
     m.shape = {0.7, 1.3, 12345.678, 2.5};
+    m.repeats = RepeatMatchPolicy::Void;
 
     StereoSystemConfig& s = c.stereo;
     s.left = {{1049.13, 1050.38}, {712.28, 564.45}, 0.00123, {-0.21, 0.17, -0.0, -0.002, 0.03}};

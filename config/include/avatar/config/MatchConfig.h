@@ -11,6 +11,13 @@ enum class MatchMethod {
     EpipolarLine   ///< distance to the calibrated epipolar line within a depth range
 };
 
+/// What happens to a left feature whose chosen right feature goes to another
+/// left feature of lower shape error (HandleRepeatMatches, Figure 3-15).
+enum class RepeatMatchPolicy {
+    Void,     ///< it stays unmatched, as in the thesis
+    Reassign  ///< re-paired along an augmenting path where its candidates allow (SIPFeatureMatcher.h)
+};
+
 /// Weights and limits of the shape difference between two features (Figure 3-14).
 struct ShapeMatchConfig {
     double magnitudeWeight{1.0};  ///< weight of relative point-to-point distance differences
@@ -36,9 +43,11 @@ struct MatchConfig {
     double minRangeMm{200.0};
     double maxRangeMm{5000.0};
     ShapeMatchConfig shape;
+    /// Left features that lose their chosen right feature to another.
+    RepeatMatchPolicy repeats{RepeatMatchPolicy::Reassign};
 
     bool operator==(const MatchConfig& o) const {
-        return method == o.method && boxDxMin == o.boxDxMin && boxDxMax == o.boxDxMax &&
+        return method == o.method && repeats == o.repeats && boxDxMin == o.boxDxMin && boxDxMax == o.boxDxMax &&
                boxDyMin == o.boxDyMin && boxDyMax == o.boxDyMax &&
                maxEpipolarDistancePx == o.maxEpipolarDistancePx && minRangeMm == o.minRangeMm &&
                maxRangeMm == o.maxRangeMm && shape == o.shape;
