@@ -28,6 +28,9 @@
 //                             megapixels, per image, for ms per megapixel).
 //   PipelineSerialVeil/<input> the same with a haze's veil on every type.
 //   PipelineSerialWater/<input> the same with the site's water on every type.
+//   PipelineSerialVoided/<input> one thread with repeat matches voided (the
+//                             thesis's HandleRepeatMatches) instead of re-paired:
+//                             against PipelineSerial, what re-pairing costs.
 //   Baseline/<input>          plain OpenCV calls, one image after the other.
 //   PipelineVsBaseline/<input> both, interleaved per iteration: the time is the
 //                             chain's; counters give the baseline's median and
@@ -56,7 +59,9 @@
 //                             in): what a short run such as avatar-analyze on a
 //                             three-pair session mostly sees.
 //   Match/<input>             the match stage alone (SIPFeatureMatcher, one
-//                             thread, CPU time) on the features the chain found;
+//                             thread, CPU time, repeats voided) on the features
+//                             the chain found;
+//   MatchReassign/<input>     the same with repeats re-paired (the default);
 //   MatchAllPairs/<input>     the same decisions with every pair tested and every
 //                             box candidate's shape error computed (what the
 //                             matcher cost before it pruned candidates), checked
@@ -472,9 +477,13 @@ void reportFound(benchmark::State& state, const Found& f) {
     state.counters["features_L"] = f.featuresLeft;
 }
 
-void BM_PipelineWith(benchmark::State& state, const std::string& name, bool parallel, bool veil, bool water) {
+void BM_PipelineWith(benchmark::State& state, const std::string& name, bool parallel, bool veil, bool water,
+                     bool voidRepeats) {
     const Input& in = input(name);
     AvatarConfig config = in.config;
+    // The thesis's HandleRepeatMatches (docs/config.md, <repeats>): against
+    // the default, what re-pairing costs the whole chain.
+    if (voidRepeats) config.match.repeats = RepeatMatchPolicy::Void;
     // A haze's veil on every type (docs/config.md): the hull's test on the
     // pixels its bounding box passes and the ranges do not.
     if (veil)
@@ -512,7 +521,7 @@ void BM_PipelineWith(benchmark::State& state, const std::string& name, bool para
 }
 
 void BM_Pipeline(benchmark::State& state, const std::string& name, bool parallel, bool veil = false) {
-    BM_PipelineWith(state, name, parallel, veil, false);
+    BM_PipelineWith(state, name, parallel, veil, false, false);
 }
 
 /// The tracking mode (config.analysis.tracking) on one thread: the lab pair
@@ -801,9 +810,12 @@ bool sameMatches(const std::vector<FeatureMatch>& a, const std::vector<FeatureMa
 
 /// SIPFeatureMatcher (allPairs false) or allPairsBoxMatch() on the features of
 /// each target type that the chain found in the input, as the match stage
-/// calls it; both are checked to agree before timing. Counters: features and
-/// matches over the types.
-void BM_Match(benchmark::State& state, const std::string& name, bool allPairs) {
+/// calls it, both with repeats voided (RepeatMatchPolicy::Void); they are
+/// checked to agree before timing. With @p reassign, SIPFeatureMatcher alone
+/// with the default RepeatMatchPolicy::Reassign (no reference to check it
+/// against here; tests/analyze/FeatureMatcherTest.cpp does). Counters:
+/// features and matches over the types.
+void BM_Match(benchmark::State& state, const std::string& name, bool allPairs, bool reassign) {
     const Input& in = input(name);
     if (in.config.match.method != MatchMethod::EpipolarBox) {
         state.SkipWithError("the all-pairs reference is for the epipolar box");
@@ -813,15 +825,18 @@ void BM_Match(benchmark::State& state, const std::string& name, bool allPairs) {
     chain.analyze(in.pair, 0);
     const auto& left = chain.lastFrame().at(Side::Left).features;
     const auto& right = chain.lastFrame().at(Side::Right).features;
-    const SIPFeatureMatcher matcher(in.config.match, in.config.stereo);
+    // Both void repeats: the all-pairs reference does not re-pair them.
+    MatchConfig config = in.config.match;
+    config.repeats = reassign ? RepeatMatchPolicy::Reassign : RepeatMatchPolicy::Void;
+    const SIPFeatureMatcher matcher(config, in.config.stereo);
     const auto run = [&](std::size_t type) {
-        return allPairs ? allPairsBoxMatch(in.config.match, left[type], right[type])
+        return allPairs ? allPairsBoxMatch(config, left[type], right[type])
                         : matcher.match(left[type], right[type]);
     };
     std::size_t features = 0, matches = 0;
     for (std::size_t t = 0; t < left.size(); ++t) {
         const auto ours = matcher.match(left[t], right[t]);
-        if (!sameMatches(ours, allPairsBoxMatch(in.config.match, left[t], right[t]))) {
+        if (!reassign && !sameMatches(ours, allPairsBoxMatch(config, left[t], right[t]))) {
             state.SkipWithError("SIPFeatureMatcher and the all-pairs reference disagree");
             return;
         }
@@ -863,8 +878,17 @@ void registerAll() {
         benchmark::RegisterBenchmark(("PipelineSerialVeil/" + name).c_str(), BM_Pipeline, name, false, true)
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime();
+    for (const std::string name : {"synthetic_640x480/n:1000", "synthetic_1280x960/n:1000"}) {
+        benchmark::RegisterBenchmark(("PipelineSerial/" + name).c_str(), BM_Pipeline, name, false, false)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+        benchmark::RegisterBenchmark(("PipelineSerialVoided/" + name).c_str(), BM_PipelineWith, name, false, false,
+                                     false, true)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+    }
     benchmark::RegisterBenchmark("PipelineSerialWater/lab_1280x960", BM_PipelineWith, std::string("lab_1280x960"),
-                                 false, false, true)
+                                 false, false, true, false)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
     benchmark::RegisterBenchmark("PipelineScaling/lab", BM_PipelineScaling)->Unit(benchmark::kMillisecond);
@@ -901,9 +925,11 @@ void registerAll() {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
     for (const std::string& name : inputNames()) {
-        benchmark::RegisterBenchmark(("Match/" + name).c_str(), BM_Match, name, false)
+        benchmark::RegisterBenchmark(("Match/" + name).c_str(), BM_Match, name, false, false)
             ->Unit(benchmark::kMicrosecond);
-        benchmark::RegisterBenchmark(("MatchAllPairs/" + name).c_str(), BM_Match, name, true)
+        benchmark::RegisterBenchmark(("MatchAllPairs/" + name).c_str(), BM_Match, name, true, false)
+            ->Unit(benchmark::kMicrosecond);
+        benchmark::RegisterBenchmark(("MatchReassign/" + name).c_str(), BM_Match, name, false, true)
             ->Unit(benchmark::kMicrosecond);
     }
 }
