@@ -377,10 +377,12 @@ private:
     /// takes the best augmenting path (Path::before) of at most kMaxPathLefts
     /// left features, if it has one: u takes one of its options (optionsOf());
     /// where another left feature holds it, that one moves to one of its own
-    /// options, and so on, until a right feature no match holds is reached. Every left feature that had a match keeps one, and
-    /// every pair stays admissible; a left image that took a look-alike's
-    /// right image gives it back to its owner and takes its own. Returns the
-    /// number of left features re-paired; @p matches stays in left order.
+    /// options, and so on, until a right feature no match holds is reached.
+    /// Every left feature that had a match keeps one, and every pair stays
+    /// admissible; a left image that took a look-alike's right image gives it
+    /// back to its owner and takes its own. At most kPathOptions^kMaxPathLefts
+    /// paths per voided left feature. Returns the number of left features
+    /// re-paired; @p matches stays in left order.
     template <typename Source>
     std::size_t reassign(std::vector<FeatureMatch>& matches, Source& source) {
         std::vector<int> owner(right_.size(), -1);
@@ -397,9 +399,8 @@ private:
             Path best;
             Path path;
             // Extends path (its first k steps set) with the options of the
-            // left feature at step k. The last step can only take a free
-            // right feature, and the first free one in (error, index) order
-            // is the best completion: the others are not looked at.
+            // left feature at step k; the last step can only take a free
+            // right feature.
             const auto extend = [&](auto& self, int k) -> void {
                 const auto step = static_cast<std::size_t>(k);
                 const auto lk = static_cast<std::size_t>(path.lefts[step]);
@@ -417,7 +418,6 @@ private:
                     path.length = k + 1;
                     if (next < 0) {
                         if (best.length == 0 || path.before(best)) best = path;
-                        if (last) break;
                     } else {
                         path.lefts[step + 1] = next;
                         self(self, k + 1);
