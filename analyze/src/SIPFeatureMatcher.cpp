@@ -380,8 +380,8 @@ private:
     /// options, and so on, until a right feature no match holds is reached.
     /// Every left feature that had a match keeps one, and every pair stays
     /// admissible; a left image that took a look-alike's right image gives it
-    /// back to its owner and takes its own. At most kPathOptions^kMaxPathLefts
-    /// paths per voided left feature. Returns the number of left features
+    /// back to its owner and takes its own. At most kPathOptions +
+    /// kPathOptions^2 + kPathOptions^3 paths per voided left feature. Returns the number of left features
     /// re-paired; @p matches stays in left order.
     template <typename Source>
     std::size_t reassign(std::vector<FeatureMatch>& matches, Source& source) {

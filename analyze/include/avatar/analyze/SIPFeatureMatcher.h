@@ -84,19 +84,21 @@ double shapeError(const Feature& a, const Feature& b, const ShapeMatchConfig& we
 ///   features, if there is one: it takes one of its four best admissible
 ///   right features (by shape error, then index); the left feature holding
 ///   that one moves to another of its own four best, and so on, until a
-///   right feature no match holds is taken. Best is the least shape error added (the new pairs' errors less
-///   the errors of the pairs they replace), then the fewest left features
-///   moved, then the lower right indices. Every left feature matched before
+///   right feature no match holds is taken. Best is the least shape error
+///   added (the new pairs' errors less the errors of the pairs they
+///   replace), then the fewest left features moved, then the lower right
+///   indices. Every left feature matched before
 ///   stays matched, every pair stays admissible, and the matches grow by one
 ///   per path. It undoes the commoner failure with look-alikes in a tall
 ///   box: a left image that took a look-alike's right image with a lower
 ///   error than the look-alike's own left image gives it back and takes its
 ///   own, where voiding stranded both targets (docs/accuracy.md, the
 ///   thirtieth and thirty-first rounds: 6 whole targets gained on 28 seeds of
-///   60 varied scenes, none lost, no wrong pair flagged whole). Its cost is
-///   bounded by the path length and the four options: at most 64 path steps
-///   per voided left feature, whose options are found with the same shape
-///   error bound as above, and nothing at all when no repeat was voided.
+///   60 varied scenes, none lost, no false whole added). Its cost is bounded
+///   by the path length and the four options: at most 4 + 16 + 64 paths
+///   looked at per voided left feature, whose options are found with the
+///   same shape error bound as above, and nothing at all when no repeat was
+///   voided.
 ///
 /// Immutable after construction; match() is safe to call from several threads.
 class SIPFeatureMatcher {
