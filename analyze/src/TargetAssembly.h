@@ -105,6 +105,18 @@ struct CompletenessLimits {
     /// rectified rows (the epipolar tangency of a whole rigid object;
     /// whole targets agree within 0.3 px, median).
     double maxTangencyPx{2.0};
+    /// A partial neighbour's depth from its outlines' free edges
+    /// (Built::outlineDepthMm): the fewest rectified rows with an edge free
+    /// in both views (both sides together); the largest spread of each
+    /// side's disparities (median absolute deviation: this many px, or this
+    /// share of the disparity); and how far apart the two sides' medians
+    /// may be (this share of the disparity, or twice that spread in px: a
+    /// disc tilted 45 degrees about the vertical, 35 mm across at 0.9 m,
+    /// has its rims' disparities 5.5 % apart).
+    int minOutlineDisparityRows{8};
+    double maxOutlineDisparitySpreadPx{1.0};
+    double maxOutlineDisparitySpreadShare{0.03};
+    double maxOutlineDisparitySidesShare{0.08};
     double minHoleColourLog{0.5};
     double holeNoiseFactor{4.0};
     /// Variance factor of the centroid covariance (see measureSilhouette()):
@@ -344,6 +356,10 @@ private:
         /// `ambiguous` for a reason other than its colour's rivals: its
         /// fragments' types, its match, its shape or size.
         bool ambiguousNotByColour{false};
+        /// The depth (mm, left camera frame) of its outlines' free edges
+        /// matched row by row (outlineDisparity() in TargetAssembly.cpp),
+        /// along its left centroid's ray; none where too few rows agree.
+        std::optional<double> outlineDepthMm;
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;

@@ -955,6 +955,52 @@ TEST(Completeness, ASphereInFrontOfAMergedPairFarBehindIsWhole) {
     EXPECT_GE(checked, 2);
 }
 
+// A yellow sphere 200 mm in front of a larger gold one, their types
+// declaring no shape (placed by their centroids, every contact judged by
+// depth), hiding the gold one's side in the left view or both: the gold
+// one is partial, and its centroids' depth was doubted by half its radius
+// in one image's centroid (150-170 mm there), so the sphere in front,
+// nearer by less than both radii and that doubt, was flagged hidden where
+// it hides most. The gold one's outlines give its depth where they are
+// their own in both views (the rows of its far side), and the sphere in
+// front is whole at every overlap; with that depth left out (more rows
+// asked for than there are) it is hidden, as before.
+TEST(Completeness, ASphereInFrontOfAPartialNeighbourIsJudgedByTheNeighboursOutlineDepth) {
+    const AvatarConfig cfg = config(TargetShape::None);
+    detail::CompletenessLimits withoutOutline;
+    withoutOutline.minOutlineDisparityRows = 100000;
+    const detail::TargetAssembler centroidsOnly(cfg, withoutOutline);
+    int checked = 0, hiddenWithout = 0;
+    for (const double overlap : {8.0, 12.0, 16.0, 20.0, 24.0, 28.0}) {
+        render::Scene scene = emptyLab();
+        // The gold sphere's left limb that far (mm at the front one's
+        // depth) inside the front one's right limb, seen from the left camera.
+        const double x = 40 - (10 + overlap) * 900.0 / 700.0;
+        scene.targets = {target("front", render::Shape::Sphere, {-40, 10, 700}, 30),
+                         target("gold", render::Shape::Sphere, {x, 10, 900}, 40, kGold, "arm_marker")};
+        Outcome o = run(scene, cfg, 9);
+        const auto front = o.of("front"), gold = o.of("gold");
+        ASSERT_TRUE(front && gold) << overlap;
+        SCOPED_TRACE("overlap " + std::to_string(overlap) + ": front " + flagsOf(front) + ", gold " + flagsOf(gold));
+        ASSERT_EQ(o.truth.target("front").left.hiddenFraction(), 0.0);
+        ASSERT_EQ(o.truth.target("front").right.hiddenFraction(), 0.0);
+        ASSERT_GT(o.truth.target("gold").left.hiddenFraction() + o.truth.target("gold").right.hiddenFraction(), 0.0);
+        EXPECT_FALSE(gold->flags & kTargetWhole);
+        if (!(gold->flags & (kTargetOccludedLeft | kTargetOccludedRight))) continue;
+        ++checked;
+        EXPECT_TRUE(front->flags & kTargetWhole);
+        EXPECT_LT(o.errorMm("front"), 4.0);  // its centroids' (no shape declared): a sphere's silhouette bias
+        // The same frame judged without the outlines' depth.
+        o.frame.result.targets.clear();
+        centroidsOnly.assemble(o.frame);
+        for (const VisionTarget& v : o.frame.result.targets)
+            if ((v.flags & kTargetStereo) && v.type == "sample")
+                hiddenWithout += (v.flags & (kTargetOccludedLeft | kTargetOccludedRight)) != 0;
+    }
+    EXPECT_GE(checked, 5);
+    EXPECT_GE(hiddenWithout, 3) << "the centroids' doubt must have hidden the sphere";
+}
+
 // One sphere whose halves pass two filters (yellow "sample", gold
 // "arm_marker") is reported once, never as two targets: ambiguous when the
 // halves are even, of the type holding most of it when one dominates.
