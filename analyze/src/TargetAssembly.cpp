@@ -1008,10 +1008,10 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 // agree on a disparity (Built::outlineDepthMm), that depth
                 // is taken, doubted by a pixel of disparity: its rim lies
                 // within its radius of its centre, which the margin below
-                // holds (the half radius's doubt had called 9 targets of the
-                // 28 studied seeds hidden behind partial neighbours 100-300 mm
-                // further; without any doubt 5 hidden ones were whole,
-                // docs/accuracy.md, the thirty-second round).
+                // holds (without any doubt, 9 whole targets of the 28 studied
+                // seeds were gained and 5 hidden ones called whole; with the
+                // outlines' depth 4 are gained and none: docs/accuracy.md,
+                // the thirty-second round).
                 const bool partial = placedByPart(viewFlags[b.target]);
                 double depthDoubt = 0.0;
                 double depthB = tb.positionVisionMm ? tb.positionVisionMm->z : 0.0;
