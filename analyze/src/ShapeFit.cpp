@@ -312,12 +312,18 @@ RoundCompleteness roundCompleteness(const CameraIntrinsics& camera, const Ellips
         // the two masks is background: still the seam when the outline's own
         // contact points lie this close.
         else if (ownDeep && nearContact(onPx)) ++c.seam;
-        else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) ++c.hidden;
+        else if (on == EdgeKind::Contact || in == EdgeKind::Contact || deep == EdgeKind::Contact) {
+            ++c.hidden;
+            c.hiddenPx.push_back(onPx);
+        }
         // Where the seam ends, the mixed pixels of the two colours and the
         // background blur along it and the filter passes neither side: a
         // bin short there is at the other target too, hidden only if that
         // one is the nearer.
-        else if (nearContact(onPx, kSeamEndPx)) ++c.hidden;
+        else if (nearContact(onPx, kSeamEndPx)) {
+            ++c.hidden;
+            c.hiddenPx.push_back(onPx);
+        }
         else {
             ++c.missing;
             c.shallow += ownDeep;

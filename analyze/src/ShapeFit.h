@@ -68,6 +68,7 @@ struct RoundCompleteness {
     int present{0};        ///< unsupported bins where the silhouette still reaches the ellipse
     int cut{0};            ///< unsupported bins beyond the image or window edge
     int hidden{0};         ///< unsupported bins at another target: hidden if it is nearer
+    std::vector<cv::Point2d> hiddenPx;  ///< where those bins' ellipse points lie (distorted pixels)
     /// Present bins at another target whose own pixels begin only past the
     /// seam of mixed pixels: complete if it is the nearer one, which only
     /// the depths can tell.

@@ -46,6 +46,10 @@ private:
 };
 
 cv::Rect grown(const cv::Rect& r, int by) { return {r.x - by, r.y - by, r.width + 2 * by, r.height + 2 * by}; }
+/// Whether sub-pixel point @p p lies within @p r.
+bool within(const cv::Rect& r, const cv::Point2d& p) {
+    return p.x >= r.x && p.y >= r.y && p.x < r.x + r.width && p.y < r.y + r.height;
+}
 
 /// Whether two features of different masks come within 2 px of each other.
 bool touching(const cv::Mat& maskA, const Feature& a, const cv::Mat& maskB, const Feature& b) {
@@ -109,6 +113,7 @@ struct ViewVerdict {
     std::vector<cv::Point2d> fragmentPx;
     bool touchesEdge{false};
     bool contactOffBody{false};  ///< Built::contactOffBody
+    std::vector<cv::Point2d> atTargetPx;  ///< Built::atTargetPx
     int roundParts{0};           ///< a composite's parts with an ellipse
     /// A composite's body placed by its part's cone: that axis's covariance
     /// (normalised coordinates squared, coneAxisCovariance()).
@@ -883,6 +888,9 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         int group;  ///< targets of one feature pair (splitMerged()) judge each other themselves
         double sphereRadiusMm;  ///< Built::sphereRadiusMm
         std::optional<double> outlineDepthMm;  ///< Built::outlineDepthMm
+        std::array<std::vector<cv::Point2d>, 2> atTargetPx;  ///< Built::atTargetPx
+        bool seamTells[2];  ///< Built::seamTells
+        std::array<std::vector<cv::Point2d>, 2> contactPx;  ///< Built::contactPx
     };
     std::vector<Placed> placed;
     int group = 0;
@@ -909,7 +917,8 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 placed.push_back({out.size() - 1, {l.feature.box, r.feature.box}, {one.contact[0], one.contact[1]},
                                   {one.glancing[0], one.glancing[1]}, std::move(one.fragments),
                                   {one.contactOffBody[0], one.contactOffBody[1]}, group, one.sphereRadiusMm,
-                                  one.outlineDepthMm});
+                                  one.outlineDepthMm, std::move(one.atTargetPx),
+                                  {one.seamTells[0], one.seamTells[1]}, std::move(one.contactPx)});
             }
         }
         for (std::size_t o = 0; o < left.size(); ++o)
@@ -937,6 +946,28 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             lone[static_cast<std::size_t>(side)].push_back(std::move(l));
         }
     }
+    // Whether @p a's outline has a point at another target within @p b's box
+    // in view @p side (true where its contact points are not known: a
+    // target split from a merged pair).
+    const auto touchesBox = [this](const Placed& a, const Placed& b, int side) {
+        const auto s = static_cast<std::size_t>(side);
+        if (!limits_.touchedOnly || a.contactPx[s].empty()) return true;
+        const cv::Rect box = grown(b.box[s], 3);
+        return std::any_of(a.contactPx[s].begin(), a.contactPx[s].end(),
+                           [&](const cv::Point2d& p) { return within(box, p); });
+    };
+    // Whether @p a lies in front of @p b at their seam in view @p side: b's
+    // model has bins under a (at least minSeamOrderBins), a's has none under b.
+    const auto seamOrder = [this](const Placed& a, const Placed& b, int side) {
+        const auto s = static_cast<std::size_t>(side);
+        if (limits_.minSeamOrderBins <= 0 || !a.seamTells[s] || !b.seamTells[s]) return false;
+        const cv::Rect aBox = grown(a.box[s], 2), bBox = grown(b.box[s], 2);
+        for (const cv::Point2d& p : a.atTargetPx[s])
+            if (within(bBox, p)) return false;
+        const auto under = std::count_if(b.atTargetPx[s].begin(), b.atTargetPx[s].end(),
+                                         [&](const cv::Point2d& p) { return within(aBox, p); });
+        return under >= limits_.minSeamOrderBins;
+    };
     // Half a target's radius of doubt in its own disparity (below).
     const auto minDisparity = [](const VisionTarget& t) {
         const double radiusPx = std::sqrt(std::max(t.areaLeftPx, 1.0) / M_PI);
@@ -969,6 +1000,11 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             std::ostringstream why;  // for the debug log
             for (const Placed& b : placed) {
                 if (&a == &b || a.group == b.group || (grown(a.box[side], 3) & b.box[side]).empty()) continue;
+                // Only the targets its outline touches (a box beside it may
+                // belong to one that touches nothing here: a duck touching a
+                // red sphere in one view was hidden by a magenta one whose
+                // box overlapped its own, seed 42).
+                if (!touchesBox(a, b, side)) continue;
                 any = true;
                 const VisionTarget& tb = out[b.target];
                 // Two spheres in space: touching, the one behind the
@@ -1025,6 +1061,16 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                         depthDoubt = depthB * depthB * halfRadiusPx / focalBaseline;
                     }
                 }
+                // At the seam, the one whose model runs on under the other
+                // (bins of its ellipse at the other target, past the seam's
+                // mixed pixels) is behind; the other, whose bins there are
+                // all the seam's, is in front. A sliver hidden behind a
+                // neighbour leaves its bins the seam's too, but then the
+                // neighbour's run on under nothing: the order is told only
+                // where both outlines say it, and only for the nearer centre
+                // (a duck and a sphere 4 mm apart in depth, into each other,
+                // each hid a part of the other, seed 51).
+                if (ta.positionVisionMm && ta.positionVisionMm->z <= depthB && seamOrder(a, b, side)) continue;
                 // Nearer by both radii: a target beside another at nearly
                 // its depth (touching, or one into the other) may be hidden
                 // by it in part even though its centre is nearer.
@@ -1265,6 +1311,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             if (v.merged) v.hidden = false;  // what it is, not what hides it
             v.roundFits = !v.cut && !v.hidden && !v.merged;
             v.modelUsable = !v.merged && v.fit.rmsPx <= limits_.maxFitRmsPx && 2 * v.round.supported >= v.round.bins;
+            v.atTargetPx = v.round.hiddenPx;
         } else if (composite) {
             // Each round part is checked as a round target is, except that
             // its outline may run inside the other part (present bins).
@@ -1342,6 +1389,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 fragments = fragments || !c.fragmentBins.empty();
                 v.fragmentPx.insert(v.fragmentPx.end(), c.fragmentPx.begin(), c.fragmentPx.end());
                 if (static_cast<int>(i) == body) v.round = c;
+                v.atTargetPx.insert(v.atTargetPx.end(), c.hiddenPx.begin(), c.hiddenPx.end());
                 if (log4cpp::Category& log = logger(); log.isDebugEnabled())
                     log.debugStream() << "  part " << i << ": " << v.parts.outlines[i].size() << " points, ellipse "
                                       << p.ideal.size << ", rms " << p.rmsPx << ", inliers " << p.inliers
@@ -1541,6 +1589,11 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                 target.flags |= s == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
         }
         built.contactOffBody[s] = v.contactOffBody;
+        built.atTargetPx[static_cast<std::size_t>(s)] = v.atTargetPx;
+        built.seamTells[s] = (round || composite) && v.fit.ok && v.fit.rmsPx <= limits_.maxFitRmsPx && !v.merged &&
+                             !v.cut;
+        for (const OutlinePoint& q : v.silhouette.outline)
+            if (q.kind == EdgeKind::Contact) built.contactPx[static_cast<std::size_t>(s)].push_back(q.px);
     }
     if (model == ShapeModel::Sphere || model == ShapeModel::Composite) built.sphereRadiusMm = sphereRadiusMm;
 

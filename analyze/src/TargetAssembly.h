@@ -63,6 +63,13 @@ struct CompletenessLimits {
     /// search window's edge (px) is cut.
     int nearEdgePx{3};   ///< relative, of the range-scaled areas of other shapes
     double minConcavityDepth{0.08};  ///< of a round silhouette's waist, relative to its radius
+    /// Two touching targets at nearly one depth: the one whose model's
+    /// bins run on under the other in at least this many bins (the other's
+    /// running under nothing) is behind it (0: the depths alone judge).
+    int minSeamOrderBins{2};
+    /// A contact is judged against the targets the outline's contact points
+    /// lie at (false: against every target whose box is within 3 px).
+    bool touchedOnly{true};
     double minTypeShare{0.8};       ///< of an object split between filters, for its type to be decided
     double minTypeShareUnchecked{0.97};  ///< the same when a type of the object has no round model
     /// A colour that another type's filter passes once its R/G or B/G
@@ -339,6 +346,14 @@ private:
         /// body's, or another part's bins at a target): what its body's
         /// sphere cannot judge by depth.
         bool contactOffBody[2]{false, false};
+        /// Per view, where a round model's bins (a composite's parts' bins)
+        /// run on under another target, and whether that model's outline
+        /// is trusted to tell so (it fits, is not merged, not cut).
+        std::array<std::vector<cv::Point2d>, 2> atTargetPx;
+        bool seamTells[2]{false, false};
+        /// Per view, its outline's points at another target (distorted
+        /// pixels): the targets it touches there.
+        std::array<std::vector<cv::Point2d>, 2> contactPx;
         /// Located by the sphere model: its radius; by the composite model:
         /// its body's (a sphere's cone); else 0.
         double sphereRadiusMm{0.0};

@@ -1032,6 +1032,103 @@ TEST(Completeness, OneTargetSplitBetweenTwoFiltersIsReportedOnce) {
     EXPECT_LT(o.errorMm("mostly"), 1.0);
 }
 
+// A yellow duck facing away from a gold disc 15 mm behind its body's
+// centre, over the disc's side: the depths cannot order them (their
+// centroids' difference is well inside both radii), and the duck's contact
+// is judged by depth (a composite's). The seam does order them: the disc's
+// ellipse runs on under the duck, whose parts' bins there are their own.
+// The duck is whole wherever the disc's model shows two bins or more under
+// it (it was flagged hidden: minSeamOrderBins 0); the disc is never whole, a
+// sliver of a pixel or two hidden included.
+TEST(Completeness, AtASeamTheOutlineThatRunsOnUnderTheOtherIsBehind) {
+    AvatarConfig cfg = config(TargetShape::Composite);
+    cfg.targets.targets[1].shape = TargetShape::Disc;  // the arm marker
+    const double f = cfg.stereo.left.fc[0];
+    detail::CompletenessLimits depthsOnly;
+    depthsOnly.minSeamOrderBins = 0;
+    const detail::TargetAssembler byDepths(cfg, depthsOnly);
+    const cv::Vec3d body(-40, 10, 800);
+    const double radius = 30.0, discRadius = 25.0, discDepth = 815.0;
+    int wholeDuck = 0, wholeDuckByDepths = 0, deep = 0;
+    for (const double overlapPx : {1.0, 2.0, 6.0, 10.0, 14.0, 18.0}) {
+        render::Scene scene = emptyLab();
+        auto duck = target("duck", render::Shape::Duck, body, radius);
+        duck.om = {0.0, M_PI, 0.0};  // facing left: its head and beak away from the disc
+        // The disc's left rim that far inside the body's right limb in the
+        // left image.
+        const double limbPx = f * body[0] / body[2] + f * radius / std::sqrt(body[2] * body[2] - radius * radius);
+        const double discX = (limbPx - overlapPx) / f * discDepth + discRadius;
+        scene.targets = {duck, target("disc", render::Shape::Disc, {discX, body[1], discDepth}, discRadius, kGold,
+                                      "arm_marker")};
+        Outcome o = run(scene, cfg, 7);
+        const auto d = o.of("duck"), disc = o.of("disc");
+        ASSERT_TRUE(d && disc) << overlapPx;
+        SCOPED_TRACE("overlap " + std::to_string(overlapPx) + " px: duck " + flagsOf(d) + ", disc " + flagsOf(disc));
+        ASSERT_FALSE(o.truth.target("duck").left.occluded || o.truth.target("duck").right.occluded);
+        ASSERT_TRUE(o.truth.target("disc").left.occluded);
+        EXPECT_FALSE(disc->flags & kTargetWhole);
+        EXPECT_TRUE(disc->flags & kTargetOccludedLeft);
+        wholeDuck += (d->flags & kTargetWhole) != 0;
+        if (d->flags & kTargetWhole) {
+            EXPECT_LT(o.errorMm("duck"), 2.0);
+        }
+        deep += overlapPx >= 6.0;
+        // The same frame judged by the depths alone.
+        o.frame.result.targets.clear();
+        byDepths.assemble(o.frame);
+        for (const VisionTarget& v : o.frame.result.targets)
+            if ((v.flags & kTargetStereo) && v.type == "sample") wholeDuckByDepths += (v.flags & kTargetWhole) != 0;
+    }
+    EXPECT_GE(wholeDuck, deep) << "the duck is whole wherever the disc runs on under it";
+    EXPECT_EQ(wholeDuckByDepths, 0) << "the depths alone cannot order them";
+}
+
+// A yellow sphere touching a gold one far behind it (judged nearer by
+// depth), with a second gold sphere nearer than it diagonally off its
+// corner: their boxes overlap, their outlines do not touch. Its contact is
+// judged against the target its outline touches only, and it is whole;
+// judged against every box within 3 px (touchedOnly false), the nearer
+// sphere it never touches hid it.
+TEST(Completeness, AContactIsJudgedAgainstTheTargetItTouchesNotABoxNearIt) {
+    const AvatarConfig cfg = config(TargetShape::None);
+    const double f = cfg.stereo.left.fc[0];
+    detail::CompletenessLimits anyBox;
+    anyBox.touchedOnly = false;
+    const detail::TargetAssembler byBoxes(cfg, anyBox);
+    const cv::Vec3d centre(0, 0, 800);
+    const double radius = 30.0, cornerRadius = 20.0, cornerDepth = 790.0;
+    int checked = 0;
+    for (const double apart : {1.15, 1.25}) {
+        render::Scene scene = emptyLab();
+        // Diagonally up-left: centres (apart x the radii's sum) apart in the left image.
+        const double sumPx = f * radius / centre[2] + f * cornerRadius / cornerDepth;
+        const double offsetPx = apart * sumPx / std::sqrt(2.0);
+        const cv::Vec3d corner(-offsetPx / f * cornerDepth, -offsetPx / f * cornerDepth, cornerDepth);
+        scene.targets = {target("sphere", render::Shape::Sphere, centre, radius),
+                         target("behind", render::Shape::Sphere, {60.0 / f * 1200.0, 0, 1200}, 40, kGold,
+                                "arm_marker"),
+                         target("corner", render::Shape::Sphere, corner, cornerRadius, kGold, "arm_marker")};
+        Outcome o = run(scene, cfg, 11);
+        SCOPED_TRACE("apart " + std::to_string(apart));
+        ASSERT_FALSE(o.truth.target("sphere").left.occluded || o.truth.target("sphere").right.occluded);
+        ASSERT_TRUE(o.truth.target("behind").left.occluded);
+        ASSERT_FALSE(o.truth.target("corner").left.occluded || o.truth.target("corner").right.occluded);
+        const auto v = o.of("sphere");
+        ASSERT_TRUE(v);
+        EXPECT_TRUE(v->flags & kTargetWhole) << flagsOf(v);
+        EXPECT_LT(o.errorMm("sphere"), 4.0);  // its centroids' (no shape declared)
+        // The same frame judged against every box near it.
+        o.frame.result.targets.clear();
+        byBoxes.assemble(o.frame);
+        for (const VisionTarget& t : o.frame.result.targets)
+            if ((t.flags & kTargetStereo) && t.type == "sample") {
+                EXPECT_FALSE(t.flags & kTargetWhole) << "the nearer box must have hidden it";
+                ++checked;
+            }
+    }
+    EXPECT_EQ(checked, 2);
+}
+
 // A speck of silt in front of a sphere, inside its outline in the left image
 // only, leaves a hole the filter does not pass: the sphere is hidden there in
 // part (not whole), though its outline is complete and its model still places
