@@ -44,6 +44,7 @@ void writeView(std::ostringstream& out, const char* camera, const TargetView& v)
         << "\" occluded=\"" << (v.occluded ? "true" : "false") << "\" atBorder=\""
         << (v.atBorder ? "true" : "false") << "\" cut=\"" << (v.cut ? "true" : "false") << "\" areaPx=\""
         << num(v.areaPx) << "\" potentialAreaPx=\"" << num(v.potentialAreaPx) << '"';
+    if (v.cut) out << " outsideAreaPx=\"" << (std::isinf(v.outsideAreaPx) ? std::string("inf") : num(v.outsideAreaPx)) << '"';
     if (v.projectedCentrePx) out << " projectedCentrePx=\"" << point(*v.projectedCentrePx) << '"';
     if (v.silhouetteCentroidPx) out << " silhouetteCentroidPx=\"" << point(*v.silhouetteCentroidPx) << '"';
     out << "/>\n";

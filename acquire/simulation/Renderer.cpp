@@ -81,7 +81,12 @@ struct TargetAccumulator {
     double potential{0.0};
     bool atBorder{false};
     bool cut{false};  ///< a ray just outside the image passes through it
+    double outside{0.0};  ///< its silhouette's area beyond the outer pixel edges (kOutsideBandPx deep; inf beyond)
 };
+
+/// How far beyond the image's outer pixel edges a cut silhouette's area is
+/// measured, px.
+constexpr double kOutsideBandPx = 2.0;
 
 struct CameraRender {
     cv::Mat radiance;  ///< CV_64FC3, linear R, G, B per pixel (before strobe and sensor)
@@ -197,6 +202,46 @@ CameraRender renderCamera(const World& world, const CameraRig& rig, const Render
 
     out.targets.assign(nTargets, {});
     for (std::size_t t = 0; t < nTargets; ++t) out.targets[t].cut = (cutTargets >> t) & 1u;
+    // How much of a cut silhouette lies beyond the image: a band of
+    // kOutsideBandPx along each edge, sampled every quarter pixel both ways
+    // (each sample 1/16 px^2; the corners' squares are left out), and one
+    // row of rays just beyond it: a silhouette reaching that far has an
+    // area beyond the image without a bound here (infinity).
+    if (cutTargets != 0) {
+        const int depthSteps = static_cast<int>(4 * kOutsideBandPx);
+        std::vector<cv::Point2d> points;  // (along-edge position, depth) per edge, then mapped
+        const auto edgePoint = [&](int edge, double along, double depth) {
+            switch (edge) {
+                case 0: return cv::Point2d(along, -0.5 - depth);            // above the top
+                case 1: return cv::Point2d(along, height - 0.5 + depth);    // below the bottom
+                case 2: return cv::Point2d(-0.5 - depth, along);            // left of the left
+                default: return cv::Point2d(width - 0.5 + depth, along);    // right of the right
+            }
+        };
+        std::vector<char> deep;  // 1: beyond the band
+        for (int edge = 0; edge < 4; ++edge) {
+            const int length = edge < 2 ? width : height;
+            for (int k = 0; k < 4 * length; ++k) {
+                const double along = -0.5 + (k + 0.5) / 4.0;
+                for (int d = 0; d <= depthSteps; ++d) {
+                    points.push_back(edgePoint(edge, along, d < depthSteps ? (d + 0.5) / 4.0 : kOutsideBandPx + 1e-3));
+                    deep.push_back(d == depthSteps);
+                }
+            }
+        }
+        std::vector<std::uint64_t> hits(points.size(), 0);
+        cv::parallel_for_(cv::Range(0, static_cast<int>(points.size())), [&](const cv::Range& r) {
+            for (int k = r.start; k < r.end; ++k)
+                hits[static_cast<std::size_t>(k)] =
+                    tracer.trace(points[static_cast<std::size_t>(k)].x, points[static_cast<std::size_t>(k)].y, false)
+                        .sig.targets & cutTargets;
+        });
+        for (std::size_t k = 0; k < points.size(); ++k)
+            for (std::uint64_t m = hits[k]; m != 0; m &= m - 1) {
+                TargetAccumulator& a = out.targets[static_cast<std::size_t>(__builtin_ctzll(m))];
+                a.outside = deep[k] ? std::numeric_limits<double>::infinity() : a.outside + 1.0 / 16.0;
+            }
+    }
     for (int j = 0; j < height; ++j) {
         for (std::size_t t = 0; t < nTargets; ++t) {
             const TargetAccumulator& r = rowSums[static_cast<std::size_t>(j) * nTargets + t];
@@ -289,6 +334,7 @@ TargetView viewOf(const TargetAccumulator& a, const std::optional<cv::Point2d>& 
     v.occluded = a.potential - a.visible > 1e-9 * std::max(1.0, a.potential);
     v.atBorder = a.atBorder;
     v.cut = a.cut;
+    v.outsideAreaPx = a.outside;
     v.visibility = a.visible <= 0.0 ? TargetVisibility::None
                    : (v.occluded || v.cut) ? TargetVisibility::Partial
                                            : TargetVisibility::Full;

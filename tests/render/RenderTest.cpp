@@ -317,6 +317,45 @@ TEST(Render, TouchingTheBorderIsNotCut) {
     EXPECT_EQ(crossing.hiddenFraction(), 0.0);  // nothing in front of it: cut, not hidden
 }
 
+// How much of a cut silhouette lies beyond the image is what an image 10 px
+// larger each way (the principal points moved with it: the same rays) shows
+// more of it; not cut, nothing; beyond the 2 px band measured, no bound.
+TEST(Render, TheAreaBeyondTheEdgeIsWhatALargerImageShows) {
+    const auto bottomOf = [](double y, double z, double r) {
+        const double f = 1050.38, cy = 564.45;
+        return cy + f * std::tan(std::asin(r / std::hypot(y, z)) + std::atan2(y, z));
+    };
+    const auto yFor = [&](double bottom) {
+        double lo = 0, hi = 600;
+        for (int i = 0; i < 60; ++i) (bottomOf(0.5 * (lo + hi), 1000, 40) < bottom ? lo : hi) = 0.5 * (lo + hi);
+        return 0.5 * (lo + hi);
+    };
+    Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
+    scene.targets = {target("touching", Shape::Sphere, {-300, yFor(959.3), 1000}, 40),
+                     target("grazing", Shape::Sphere, {-100, yFor(959.65), 1000}, 40),
+                     target("crossing", Shape::Sphere, {100, yFor(960.7), 1000}, 40),
+                     target("deep", Shape::Sphere, {300, yFor(963.0), 1000}, 40)};
+    const StereoSystemConfig config = test::scorpion();
+    const auto r = render::render(scene, config, test::noiseFree());
+    StereoSystemConfig larger = config;
+    for (CameraIntrinsics* c : {&larger.left, &larger.right}) c->cc = {c->cc[0] + 10.0, c->cc[1] + 10.0};
+    const auto big = render::render(scene, larger, test::noiseFree(1300, 980));
+    for (const char* name : {"touching", "grazing", "crossing"}) {
+        const auto& in = r.truth.target(name).left;
+        const auto& all = big.truth.target(name).left;
+        ASSERT_FALSE(all.cut) << name;
+        const double beyond = all.potentialAreaPx - in.potentialAreaPx;
+        EXPECT_NEAR(in.outsideAreaPx, beyond, 0.1 + 0.03 * beyond) << name;
+    }
+    EXPECT_FALSE(r.truth.target("touching").left.cut);
+    EXPECT_EQ(r.truth.target("touching").left.outsideAreaPx, 0.0);
+    EXPECT_TRUE(r.truth.target("grazing").left.cut);
+    EXPECT_GT(r.truth.target("grazing").left.outsideAreaPx, 0.0);
+    EXPECT_LT(r.truth.target("grazing").left.outsideAreaPx, 1.0);
+    EXPECT_GT(r.truth.target("crossing").left.outsideAreaPx, 1.0);
+    EXPECT_TRUE(std::isinf(r.truth.target("deep").left.outsideAreaPx));
+}
+
 TEST(Render, ArmMarkerNeedsARegistration) {
     Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
     scene.armMarkers.push_back({});

@@ -75,6 +75,10 @@ struct TargetView {
     /// Part of its silhouette lies outside the image (beyond the outer pixel
     /// edges): cut by the border, not merely touching it.
     bool cut{false};
+    /// The silhouette's area beyond the image's outer pixel edges, measured
+    /// within 2 px of them (quarter-pixel samples, the corners' squares left
+    /// out); infinity when it reaches farther; 0 when not cut.
+    double outsideAreaPx{0.0};
     /// 1 - areaPx / potentialAreaPx: the part of its in-image silhouette that is hidden.
     double hiddenFraction() const { return potentialAreaPx > 0.0 ? 1.0 - areaPx / potentialAreaPx : 0.0; }
 };
