@@ -717,7 +717,7 @@ struct Tally {
     int mixedByLargerPart{0};  ///< of them found, named by their larger part's colour (not the nearest ratio's)
     int stereo{0}, whole{0};
     int falseWhole{0}, falseWholeHidden1pc{0}, falseWholeFar{0};
-    int wholeSubPixelHidden{0};  ///< flagged whole, hidden by less than 1 px in each view (not false)
+    int wholeSubPixelHidden{0};  ///< flagged whole, hidden and cut by less than 1 px in each view (not false)
     int wholeFarOff{0};  ///< whole in truth too, but more than kFarOffMm from its centre
     int wholeSpurious{0}, wholeWrongMatch{0}, wholeWrongType{0}, duplicates{0};
     std::map<std::string, int> falseReasons;
@@ -785,25 +785,32 @@ void judgeScene(const render::Scene& scene, const render::GroundTruth& truth, co
         if (!whole) return;
         const bool truthWhole = t.left.visibility == render::TargetVisibility::Full &&
                                 t.right.visibility == render::TargetVisibility::Full;
-        // Hidden by less than one pixel's area in each view (a speck passing
-        // an edge): no pixel of it differs from a whole target's by more than
-        // its mixed edge pixels do; counted apart, not false.
-        const bool subPixelHidden = !truthWhole && !t.left.cut && !t.right.cut &&
-                                    t.left.visibility != render::TargetVisibility::None &&
+        // Hidden and cut by less than one pixel's area in each view (a speck
+        // passing an edge, a silhouette crossing the image's outer pixel
+        // edge by a fraction of a pixel): no pixel of it differs from a whole
+        // target's by more than its mixed edge pixels do; counted apart, not
+        // false.
+        const auto missingPx = [](const render::TargetView& view) {
+            return view.potentialAreaPx - view.areaPx + view.outsideAreaPx;
+        };
+        const bool subPixelHidden = !truthWhole && t.left.visibility != render::TargetVisibility::None &&
                                     t.right.visibility != render::TargetVisibility::None &&
-                                    t.left.potentialAreaPx - t.left.areaPx < 1.0 &&
-                                    t.right.potentialAreaPx - t.right.areaPx < 1.0;
+                                    missingPx(t.left) < 1.0 && missingPx(t.right) < 1.0;
         if (subPixelHidden) ++tally.wholeSubPixelHidden;
         if (!truthWhole && !subPixelHidden) {
             const double hidden = std::max(t.left.hiddenFraction(), t.right.hiddenFraction());
             const bool cut = t.left.cut || t.right.cut;
             if (hidden > 0.01 || cut) ++tally.falseWholeHidden1pc;
             if (rec.errorMm > 5.0) ++tally.falseWholeFar;
-            char what[160];
+            char beyond[64] = "";
+            if (cut)
+                std::snprintf(beyond, sizeof beyond, " cut (%.1f/%.1f px beyond the image)", t.left.outsideAreaPx,
+                              t.right.outsideAreaPx);
+            char what[200];
             std::snprintf(what, sizeof what, "%s hidden %.1f%%/%.1f%% (%.1f/%.1f px)%s, %.1f mm off", t.name.c_str(),
                           100.0 * t.left.hiddenFraction(), 100.0 * t.right.hiddenFraction(),
-                          t.left.potentialAreaPx - t.left.areaPx, t.right.potentialAreaPx - t.right.areaPx,
-                          cut ? " cut" : "", rec.errorMm);
+                          t.left.potentialAreaPx - t.left.areaPx, t.right.potentialAreaPx - t.right.areaPx, beyond,
+                          rec.errorMm);
             fail(t.left.cut || t.right.cut ? "cut" : "hidden", what);
             return;
         }
@@ -1150,7 +1157,7 @@ int main(int argc, char** argv) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::printf("\n## Seed %llu: %d scenes, %d truth targets, 0.5-2.5 m (%.0f s)\n\n",
                     static_cast<unsigned long long>(o.seed), o.scenes, truthTargets, seconds);
-        std::printf("| whole in truth | crowded (found) | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | hidden < 1 px (not false) | false whole | of them >1%% hidden or cut | >5 mm off | whole in truth, >15 mm off | spurious | wrong match | wrong type | duplicates |\n");
+        std::printf("| whole in truth | crowded (found) | between two colours (found) | reported whole | recall %% | reported at all | stereo reported | flagged whole | hidden or cut < 1 px (not false) | false whole | of them >1%% hidden or cut | >5 mm off | whole in truth, >15 mm off | spurious | wrong match | wrong type | duplicates |\n");
         std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         std::printf("| %d | %d (%d) | %d (%d) | %d | %s | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d | %d |\n", tally.truthWhole,
                     tally.crowdedWhole, tally.crowdedFound, tally.mixedWhole, tally.mixedFound, tally.recalled,
