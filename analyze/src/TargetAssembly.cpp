@@ -1434,6 +1434,18 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                     v.cut = true;
                     break;
                 }
+            // A part other than the body (the head) that reaches the edge
+            // may have the composite's part no round model sees beside it
+            // beyond the edge (a duck's beak, trust_report seed 92: a head
+            // touching the right image's edge at one point, its beak beyond,
+            // whole).
+            if (v.roundParts >= 2)
+                for (const OutlinePoint& p : sil.outline)
+                    if ((p.kind == EdgeKind::ImageEdge || p.kind == EdgeKind::WindowEdge) &&
+                        nearestPart(camera, v.parts, p.px) != body) {
+                        v.cut = true;
+                        break;
+                    }
             // A contact nearer another part's circle than the body's is at
             // the head (points of the seam's mixed pixels a part does not
             // take are still the body's when nearest to it).

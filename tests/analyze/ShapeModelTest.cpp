@@ -1083,6 +1083,68 @@ TEST(Completeness, AtASeamTheOutlineThatRunsOnUnderTheOtherIsBehind) {
     EXPECT_EQ(wholeDuckByDepths, 0) << "the depths alone cannot order them";
 }
 
+// A duck at the top edge of the images, its beak up, beyond the edge where
+// its head touches the edge; a beak of a colour no filter passes stands for
+// one the filter loses in dark water. Every round part's circle is whole,
+// yet it is cut: the head reaches the edge, and the beak beside it may lie
+// beyond (it was whole: trust_report seed 92, a duck at the right image's
+// edge). Moved 30 px down, nothing of it lies beyond the edge: whole.
+TEST(Completeness, ADuckWhoseHeadReachesTheEdgeIsCutItsBeakMayLieBeyond) {
+    const AvatarConfig cfg = config(TargetShape::Composite);
+    const double radius = 30.0, z = 900.0, f = cfg.stereo.left.fc[1];
+    const RigidTransform rTl = rightTLeft(cfg.stereo);
+    // The smallest row of a sphere's silhouette (centre in the left camera's
+    // frame) in either image.
+    const auto topmostIn = [&](const cv::Vec3d& centreLeft, double r, bool right) {
+        const cv::Point3d p = right ? transformPoint(rTl, cv::Point3d(centreLeft[0], centreLeft[1], centreLeft[2]))
+                                    : cv::Point3d(centreLeft[0], centreLeft[1], centreLeft[2]);
+        const cv::Vec3d c(p.x, p.y, p.z);
+        const double d = cv::norm(c);
+        const cv::Vec3d axis = c / d, e1 = cv::normalize(axis.cross(cv::Vec3d(1, 0, 0))), e2 = axis.cross(e1);
+        const cv::Vec3d centre = c - axis * (r * r / d);  // the circle the camera's tangent rays touch
+        const double rho = r * std::sqrt(1.0 - r * r / (d * d));
+        double v = 1e9;
+        for (int k = 0; k < 720; ++k) {
+            const double a = 2.0 * M_PI * k / 720.0;
+            const cv::Vec3d q = centre + rho * (std::cos(a) * e1 + std::sin(a) * e2);
+            if (const auto px = projectPoint(right ? cfg.stereo.right : cfg.stereo.left, cv::Point3d(q[0], q[1], q[2])))
+                v = std::min(v, px->y);
+        }
+        return v;
+    };
+    const auto topmost = [&](const cv::Vec3d& c, double r) { return std::min(topmostIn(c, r, false), topmostIn(c, r, true)); };
+    // Its own frame: x forward, y down; the head at (0.55, -0.75) radius.
+    // x turned to -y: the head up and to the left, the beak above it.
+    const cv::Vec3d om(0.0, 0.0, -M_PI / 2);
+    const cv::Vec3d headOffset = rodrigues({om[0], om[1], om[2]}) * cv::Vec3d(0.55 * radius, -0.75 * radius, 0.0);
+    // The body's height where the head comes within 0.2 px of the image's
+    // outer edge (-0.5).
+    double lo = -2000.0, hi = 0.0;
+    for (int i = 0; i < 60; ++i)
+        (topmost(cv::Vec3d(60.0, 0.5 * (lo + hi), z) + headOffset, 0.55 * radius) < -0.3 ? lo : hi) = 0.5 * (lo + hi);
+    for (const double downPx : {0.0, 30.0}) {
+        const cv::Vec3d body(60.0, 0.5 * (lo + hi) + downPx * z / f, z);
+        ASSERT_LT(topmost(body + headOffset, 0.55 * radius), topmost(body, radius) - 1.0) << "the head is the highest part";
+        render::Scene scene = emptyLab();
+        auto duck = target("duck", render::Shape::Duck, body, radius);
+        duck.om = {om[0], om[1], om[2]};
+        duck.beakAlbedo = {0.3, 0.3, 0.3};
+        scene.targets = {duck};
+        const Outcome o = run(scene, cfg);
+        const render::TargetTruth& truth = o.truth.target("duck");
+        const bool beyond = downPx == 0.0;
+        ASSERT_EQ(truth.left.cut || truth.right.cut, beyond) << downPx;
+        const auto d = o.of("duck");
+        ASSERT_TRUE(d);
+        if (beyond) {
+            EXPECT_TRUE((d->flags & kTargetCut) && !(d->flags & kTargetWhole)) << flagsOf(d);
+        } else {
+            EXPECT_TRUE((d->flags & kTargetWhole) && !(d->flags & kTargetCut)) << flagsOf(d);
+            EXPECT_LT(o.errorMm("duck"), 1.0);
+        }
+    }
+}
+
 // A yellow sphere touching a gold one far behind it (judged nearer by
 // depth), with a second gold sphere nearer than it diagonally off its
 // corner: their boxes overlap, their outlines do not touch. Its contact is
