@@ -32,6 +32,19 @@ TargetSpec target(const std::string& name, Shape shape, cv::Vec3d centre, double
 
 double distance(const cv::Point2d& a, const cv::Point2d& b) { return std::hypot(a.x - b.x, a.y - b.y); }
 
+/// The y (mm) that puts the lowest point of a 40 mm sphere's silhouette at
+/// 1000 mm (on the y-z plane, scorpion's left camera, lens ignored) at row
+/// @p bottom: v = cc_y + f tan(asin(r / d) + atan(y / z)), solved by bisection.
+double sphereYForBottom(double bottom) {
+    const auto bottomOf = [](double y, double z, double r) {
+        const double f = 1050.38, cy = 564.45;
+        return cy + f * std::tan(std::asin(r / std::hypot(y, z)) + std::atan2(y, z));
+    };
+    double lo = 0, hi = 600;
+    for (int i = 0; i < 60; ++i) (bottomOf(0.5 * (lo + hi), 1000, 40) < bottom ? lo : hi) = 0.5 * (lo + hi);
+    return 0.5 * (lo + hi);
+}
+
 TEST(Render, ProjectedCentresTriangulateToTheTruth) {
     Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
     scene.seabed.distanceMm = 3000.0;
@@ -287,23 +300,13 @@ TEST(Render, BorderVisibility) {
 }
 
 // A whole target whose silhouette only touches the last row is full, not cut;
-// one that continues beyond it is cut. The sphere's silhouette bottom lies at
-// v = cc_y + f tan(asin(r / d) + atan(y / z)) for a sphere on the y-z plane.
+// one that continues beyond it is cut (sphereYForBottom()).
 TEST(Render, TouchingTheBorderIsNotCut) {
-    const auto bottomOf = [](double y, double z, double r) {
-        const double f = 1050.38, cy = 564.45;
-        return cy + f * std::tan(std::asin(r / std::hypot(y, z)) + std::atan2(y, z));
-    };
-    // Solve for y so that the silhouette's lowest point is 959.3 (inside the
-    // last row, whose outer edge is 959.5) and 960.5 (a pixel beyond it).
-    const auto yFor = [&](double bottom) {
-        double lo = 0, hi = 600;
-        for (int i = 0; i < 60; ++i) (bottomOf(0.5 * (lo + hi), 1000, 40) < bottom ? lo : hi) = 0.5 * (lo + hi);
-        return 0.5 * (lo + hi);
-    };
+    // The silhouette's lowest point at 959.3 (inside the last row, whose
+    // outer edge is 959.5) and 960.5 (a pixel beyond it).
     Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
-    scene.targets = {target("touching", Shape::Sphere, {-150, yFor(959.3), 1000}, 40),
-                     target("crossing", Shape::Sphere, {150, yFor(960.5), 1000}, 40)};
+    scene.targets = {target("touching", Shape::Sphere, {-150, sphereYForBottom(959.3), 1000}, 40),
+                     target("crossing", Shape::Sphere, {150, sphereYForBottom(960.5), 1000}, 40)};
     const auto r = render::render(scene, test::scorpion(), test::noiseFree());
     const auto& touching = r.truth.target("touching").left;
     EXPECT_TRUE(touching.atBorder);
@@ -321,20 +324,11 @@ TEST(Render, TouchingTheBorderIsNotCut) {
 // larger each way (the principal points moved with it: the same rays) shows
 // more of it; not cut, nothing; beyond the 2 px band measured, no bound.
 TEST(Render, TheAreaBeyondTheEdgeIsWhatALargerImageShows) {
-    const auto bottomOf = [](double y, double z, double r) {
-        const double f = 1050.38, cy = 564.45;
-        return cy + f * std::tan(std::asin(r / std::hypot(y, z)) + std::atan2(y, z));
-    };
-    const auto yFor = [&](double bottom) {
-        double lo = 0, hi = 600;
-        for (int i = 0; i < 60; ++i) (bottomOf(0.5 * (lo + hi), 1000, 40) < bottom ? lo : hi) = 0.5 * (lo + hi);
-        return 0.5 * (lo + hi);
-    };
     Scene scene = test::flatScene({0.5, 0.5, 0.5}, 0.5);
-    scene.targets = {target("touching", Shape::Sphere, {-300, yFor(959.3), 1000}, 40),
-                     target("grazing", Shape::Sphere, {-100, yFor(959.65), 1000}, 40),
-                     target("crossing", Shape::Sphere, {100, yFor(960.7), 1000}, 40),
-                     target("deep", Shape::Sphere, {300, yFor(963.0), 1000}, 40)};
+    scene.targets = {target("touching", Shape::Sphere, {-300, sphereYForBottom(959.3), 1000}, 40),
+                     target("grazing", Shape::Sphere, {-100, sphereYForBottom(959.65), 1000}, 40),
+                     target("crossing", Shape::Sphere, {100, sphereYForBottom(960.7), 1000}, 40),
+                     target("deep", Shape::Sphere, {300, sphereYForBottom(963.0), 1000}, 40)};
     const StereoSystemConfig config = test::scorpion();
     const auto r = render::render(scene, config, test::noiseFree());
     StereoSystemConfig larger = config;
