@@ -1428,24 +1428,18 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
             // circle only touches the edge, the bins judge it: within a pixel
             // more than the parts' own threshold (the column of mixed pixels
             // at the edge, which the blur passes to the filter).
-            for (const OutlinePoint& p : sil.outline)
-                if ((p.kind == EdgeKind::ImageEdge || p.kind == EdgeKind::WindowEdge) &&
-                    !withinParts(camera, v.parts, p.px, limits_.partThresholdPx + 1.0)) {
-                    v.cut = true;
-                    break;
-                }
             // A part other than the body (the head) that reaches the edge
             // may have the composite's part no round model sees beside it
             // beyond the edge (a duck's beak, trust_report seed 92: a head
             // touching the right image's edge at one point, its beak beyond,
             // whole).
-            if (v.roundParts >= 2)
-                for (const OutlinePoint& p : sil.outline)
-                    if ((p.kind == EdgeKind::ImageEdge || p.kind == EdgeKind::WindowEdge) &&
-                        nearestPart(camera, v.parts, p.px) != body) {
-                        v.cut = true;
-                        break;
-                    }
+            for (const OutlinePoint& p : sil.outline)
+                if ((p.kind == EdgeKind::ImageEdge || p.kind == EdgeKind::WindowEdge) &&
+                    (!withinParts(camera, v.parts, p.px, limits_.partThresholdPx + 1.0) ||
+                     (v.roundParts >= 2 && nearestPart(camera, v.parts, p.px) != body))) {
+                    v.cut = true;
+                    break;
+                }
             // A contact nearer another part's circle than the body's is at
             // the head (points of the seam's mixed pixels a part does not
             // take are still the body's when nearest to it).
