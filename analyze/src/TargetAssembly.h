@@ -112,6 +112,12 @@ struct CompletenessLimits {
     /// rectified rows (the epipolar tangency of a whole rigid object;
     /// whole targets agree within 0.3 px, median).
     double maxTangencyPx{2.0};
+    /// A porous round feature (a hole of its own colour, an outline no
+    /// ellipse fits) is measured again with its mask closed, 5x5: only from
+    /// this mean radius (px) of its ellipse on, two and a half times the
+    /// widest channel the closing shuts (docs/accuracy.md, the
+    /// thirty-sixth round).
+    double minPorousRadiusPx{10.0};
     /// A partial neighbour's depth from its outlines' free edges
     /// (Built::outlineDepthMm): the fewest rectified rows with an edge free
     /// in both views (both sides together); the largest spread of each
