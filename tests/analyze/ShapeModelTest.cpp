@@ -1185,11 +1185,13 @@ TEST(Completeness, APorousMaskIsMeasuredClosed) {
                         if (depth > 0.f && depth <= 5.f && along > 0.0 && std::abs(across) < 0.5 * widthPx)
                             mask.at<std::uint8_t>(y, x) = 0;
                     }
-                    // Eight pixels on a circle at half the radius.
-                    const double eighths = std::atan2(d.y, d.x) * 4.0 / M_PI;
-                    if (std::abs(cv::norm(d) - 0.5 * radius) < 0.5 && std::abs(eighths - std::round(eighths)) < 0.02)
-                        mask.at<std::uint8_t>(y, x) = 0;
                 }
+            for (int k = 0; k < 8; ++k) {  // eight pixels on a circle at half the radius
+                const cv::Point p(static_cast<int>(std::lround(f.centroid.x + 0.5 * radius * std::cos(k * M_PI / 4))),
+                                  static_cast<int>(std::lround(f.centroid.y + 0.5 * radius * std::sin(k * M_PI / 4))));
+                ASSERT_NE(mask.at<std::uint8_t>(p), 0);
+                mask.at<std::uint8_t>(p) = 0;
+            }
             f.area = cv::countNonZero(mask(f.box));
             ASSERT_NE(mask.at<std::uint8_t>(f.boundary[kTopLeft]), 0) << "the flood's seed is kept";
         }
