@@ -1257,8 +1257,10 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         // rather than a channel, and its closed outline may fit an ellipse
         // that is not its own (trust_report seed 30: an orange disc of 9.5 px
         // in dark water and haze, 9 mm off).
+        std::optional<EllipseFit> outlineFit;  // of v.silhouette's outline, once fitted
         if (round && o.unionMask.empty() && porous(v.silhouette, filter, limits_)) {
-            const EllipseFit first = fitEllipse(camera, v.silhouette.outline, limits_.minFitThresholdPx);
+            const EllipseFit& first =
+                outlineFit.emplace(fitEllipse(camera, v.silhouette.outline, limits_.minFitThresholdPx));
             if (first.ok && first.rmsPx > limits_.maxFitRmsPx &&
                 0.25 * (first.ideal.size.width + first.ideal.size.height) >= limits_.minPorousRadiusPx) {
                 const cv::Rect region = grown(o.feature.box, 3) & cv::Rect(0, 0, w.image.cols, w.image.rows);
@@ -1270,6 +1272,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                                " px RMS about one ellipse), measured closed");
                 v.silhouette = measureSilhouette(w, static_cast<std::size_t>(-1), regionFeature(closed, region),
                                                  window, limits_.centroidCorrelation, closed);
+                outlineFit.reset();
             }
         }
         const Silhouette& sil = v.silhouette;
@@ -1304,7 +1307,7 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                        deepOnly);
         };
         if (round) {
-            v.fit = fitEllipse(camera, sil.outline, limits_.minFitThresholdPx);
+            v.fit = outlineFit ? *outlineFit : fitEllipse(camera, sil.outline, limits_.minFitThresholdPx);
             if (!v.fit.ok) {
                 // Too little of its outline is its own.
                 if (sil.imageEdgePoints + sil.windowEdgePoints > sil.contactPoints) v.cut = true;
