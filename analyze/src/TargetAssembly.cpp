@@ -73,6 +73,49 @@ cv::Mat featurePixels(const cv::Mat& mask, const Feature& feature, const cv::Rec
     return pixels;
 }
 
+/// How far inside another object's convex hull (px) a pixel lies to show
+/// that object's silhouette there: beyond the mixed pixels of a seam and a
+/// bulge of them the other's filter passed (roundCompleteness()'s kSeamBulgePx).
+constexpr int kInsideHullPx = 3;
+
+/// How many of @p inner's pixels (255) lie at least kInsideHullPx inside the
+/// convex hull of @p outer's pixels (255), both of one region. Where @p outer
+/// is a convex object (a sphere's or a disc's silhouette, whole or seen in
+/// part), its hull lies within its silhouette, so an object seen there lies
+/// in front of it; and two disjoint convex objects keep one order along every
+/// ray from one camera (a plane separates them), so in front there is in
+/// front wherever the two meet in that view.
+int pixelsInsideHull(const cv::Mat& inner, const cv::Mat& outer) {
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(outer.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    std::vector<cv::Point> points;
+    for (const auto& c : contours) points.insert(points.end(), c.begin(), c.end());
+    if (points.size() < 3) return 0;
+    std::vector<cv::Point> hull;
+    cv::convexHull(points, hull);
+    cv::Mat inside = cv::Mat::zeros(outer.size(), CV_8UC1);
+    cv::fillConvexPoly(inside, hull, cv::Scalar(255));
+    cv::erode(inside, inside, cv::Mat::ones(2 * kInsideHullPx + 1, 2 * kInsideHullPx + 1, CV_8UC1), cv::Point(-1, -1),
+              1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    return cv::countNonZero(inner & inside);
+}
+
+/// Whether @p inner (pixels in @p area) is seen inside @p outer's convex
+/// hull (pixelsInsideHull()): at least @p minShare of it and
+/// kMinInsideHullPx pixels.
+constexpr int kMinInsideHullPx = 20;
+bool seenInsideHull(const cv::Mat& inner, double area, const cv::Mat& outer, double minShare) {
+    const int n = pixelsInsideHull(inner, outer);
+    return n >= kMinInsideHullPx && n >= minShare * area;
+}
+/// In front of a convex object: this share of it seen inside that one's hull.
+constexpr double kInFrontShare = 0.05;
+/// Seen within another object's outline, not its fragment: this share. One
+/// object split between two filters along a curve has at most half of one
+/// part inside the other's hull (a crescent's hull takes in the lens between
+/// its horns' chord and the curve).
+constexpr double kWithinShare = 0.6;
+
 /// @p mask closed with a 5x5 square: gaps up to four pixels wide shut (a
 /// compound's seams, a porous mask's channels), a convex outline unchanged.
 cv::Mat closeMask(const cv::Mat& mask) {
@@ -781,7 +824,19 @@ std::vector<TargetAssembler::Object> TargetAssembler::objects(const AnalysisFram
             // union: two colours well inside their own filters there are
             // two targets that touch (a duck beside a sphere).
             const bool roundPair = isRound(types[nodes[a].type].shape) && isRound(types[nodes[b].type].shape);
-            if (!roundPair && !nearOf(a)[nodes[b].type] && !nearOf(b)[nodes[a].type]) continue;
+            const bool nearColour = nearOf(a)[nodes[b].type] || nearOf(b)[nodes[a].type];
+            if (!roundPair && !nearColour) continue;
+            // Two colours neither near the other's filter, one seen within
+            // the other's hull: a target in front of the other, not its
+            // fragment, though their union may fit the far one's ellipse (a
+            // red disc lying on a green one was lost so, trust_report seed 36).
+            if (!nearColour) {
+                const cv::Rect region = grown(fa.box | fb.box, 1) & cv::Rect(0, 0, w.image.cols, w.image.rows);
+                const cv::Mat pa = featurePixels(w.masks[nodes[a].type], fa, region);
+                const cv::Mat pb = featurePixels(w.masks[nodes[b].type], fb, region);
+                if (seenInsideHull(pa, fa.area, pb, kWithinShare) || seenInsideHull(pb, fb.area, pa, kWithinShare))
+                    continue;
+            }
             sets.join(a, b);
             anyContact = true;
         }
@@ -911,6 +966,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
         std::array<std::vector<cv::Point2d>, 2> atTargetPx;  ///< Built::atTargetPx
         bool seamTells[2];  ///< Built::seamTells
         std::array<std::vector<cv::Point2d>, 2> contactPx;  ///< Built::contactPx
+        const Object* object[2];  ///< its object in each view
     };
     std::vector<Placed> placed;
     int group = 0;
@@ -938,7 +994,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                                   {one.glancing[0], one.glancing[1]}, std::move(one.fragments),
                                   {one.contactOffBody[0], one.contactOffBody[1]}, group, one.sphereRadiusMm,
                                   one.outlineDepthMm, std::move(one.atTargetPx),
-                                  {one.seamTells[0], one.seamTells[1]}, std::move(one.contactPx)});
+                                  {one.seamTells[0], one.seamTells[1]}, std::move(one.contactPx), {&l, &r}});
             }
         }
         for (std::size_t o = 0; o < left.size(); ++o)
@@ -988,6 +1044,30 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                                          [&](const cv::Point2d& p) { return within(aBox, p); });
         return under >= limits_.minSeamOrderBins;
     };
+    // Whether @p a is seen inside the convex hull of round object @p b in
+    // view @p side: in front of it there (pixelsInsideHull()).
+    const auto inFrontOf = [&frame](const Object& a, const Object& b, int side) {
+        const ImageWork& w = frame.at(side == 0 ? Side::Left : Side::Right);
+        const cv::Rect region =
+            grown(a.feature.box | b.feature.box, 1) & cv::Rect(0, 0, w.image.cols, w.image.rows);
+        const auto pixels = [&](const Object& o) {
+            return o.unionMask.empty() ? featurePixels(w.masks[o.type], o.feature, region)
+                                       : cv::Mat(o.unionMask(region) > 0);
+        };
+        return seenInsideHull(pixels(a), a.feature.area, pixels(b), kInFrontShare);
+    };
+    // Whether target @p t (placed as @p p) is one object in view @p side:
+    // not merged, nor one of the targets a merged feature was split into;
+    // and a convex one: of a round type too, and not undecided.
+    const auto single = [&placed](const VisionTarget& t, const Placed& p, int side) {
+        const auto sharing = std::count_if(placed.begin(), placed.end(),
+                                           [&](const Placed& q) { return q.object[side] == p.object[side]; });
+        return sharing == 1 && !(t.flags & kTargetMerged);
+    };
+    const auto convex = [this, &single](const VisionTarget& t, const Placed& p, int side) {
+        return single(t, p, side) && isRound(config_.targets.targets[p.object[side]->type].shape) &&
+               !(t.flags & kTargetAmbiguous);
+    };
     // Half a target's radius of doubt in its own disparity (below).
     const auto minDisparity = [](const VisionTarget& t) {
         const double radiusPx = std::sqrt(std::max(t.areaLeftPx, 1.0) / M_PI);
@@ -1016,6 +1096,7 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
             if (!a.contact[side] && !glancing) continue;
             bool nearer = ta.positionVisionMm.has_value();
             bool hiddenBySphere = false;  // a sphere it touches lies in front (glancing: only that counts)
+            bool hiddenInside = false;    // a target seen inside its hull lies in front (counts too)
             bool any = false;
             std::ostringstream why;  // for the debug log
             for (const Placed& b : placed) {
@@ -1027,6 +1108,23 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 if (!touchesBox(a, b, side)) continue;
                 any = true;
                 const VisionTarget& tb = out[b.target];
+                // Seen inside a round neighbour's hull: in front of it (a red
+                // disc lying on a green one, 41 mm nearer, within the margin
+                // below: trust_report seed 36); and a round target with a
+                // neighbour seen inside its hull is hidden by it, though its
+                // outline may be whole around it. Not a merged or undecided
+                // one's hull, nor of two targets split from one feature: that
+                // of two spans the gap between them.
+                if (convex(tb, b, side) && single(ta, a, side) && inFrontOf(*a.object[side], *b.object[side], side)) {
+                    if (logger().isDebugEnabled()) why << " in front of " << tb.type << " (inside its hull)";
+                    continue;
+                }
+                if (convex(ta, a, side) && single(tb, b, side) && inFrontOf(*b.object[side], *a.object[side], side)) {
+                    hiddenInside = true;
+                    nearer = false;
+                    if (logger().isDebugEnabled()) why << " " << tb.type << " in front of it (inside its hull)";
+                    continue;
+                }
                 // Two spheres in space: touching, the one behind the
                 // contact is judged below; apart, with cones that overlap,
                 // by the order along a ray through the overlap; with cones
@@ -1108,11 +1206,12 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
                 }
             }
             if (glancing) {
-                if (hiddenBySphere) {
+                if (hiddenBySphere || hiddenInside) {
                     ta.flags |= side == 0 ? kTargetOccludedLeft : kTargetOccludedRight;
                     if (log4cpp::Category& log = logger(); log.isDebugEnabled())
                         log.debugStream() << ta.type << " at L " << ta.centroidLeftPx.value_or(cv::Point2d())
-                                          << ": at a sphere in front of it in the " << (side == 0 ? "left" : "right")
+                                          << ": at " << (hiddenInside ? "a target inside its hull" : "a sphere")
+                                          << " in front of it in the " << (side == 0 ? "left" : "right")
                                           << " view, at no bin of its outline: occluded there";
                 }
                 continue;
@@ -1209,6 +1308,32 @@ void TargetAssembler::assemble(AnalysisFrame& frame) const {
     }
 }
 
+std::optional<ImageWork> TargetAssembler::withoutNeighboursBehind(const ImageWork& w, const Object& o) const {
+    const auto& types = config_.targets.targets;
+    const cv::Rect image(0, 0, w.image.cols, w.image.rows);
+    const std::size_t own = o.members[0].type;
+    std::optional<ImageWork> out;
+    for (std::size_t t = 0; t < w.features.size() && t < types.size(); ++t) {
+        if (t == own || !isRound(types[t].shape) || w.masks[t].empty()) continue;
+        for (const Feature& f : w.features[t]) {
+            if ((grown(o.feature.box, 2) & grown(f.box, 2)).empty()) continue;
+            if (!touching(w.masks[own], o.feature, w.masks[t], f)) continue;
+            const cv::Rect region = grown(o.feature.box | f.box, 1) & image;
+            const cv::Mat behind = featurePixels(w.masks[t], f, region);
+            if (!seenInsideHull(featurePixels(w.masks[own], o.feature, region), o.feature.area, behind, kWithinShare))
+                continue;
+            if (!out) out = w;
+            cv::Mat& mask = out->masks[t];
+            if (mask.data == w.masks[t].data) mask = mask.clone();
+            mask(region).setTo(cv::Scalar(0), behind);
+            logger().debug(types[own].name + " at L " + std::to_string(o.feature.centroid.x) + "," +
+                           std::to_string(o.feature.centroid.y) + ": seen inside a " + types[t].name +
+                           " target's hull, in front of it: their edge is its own outline");
+        }
+    }
+    return out;
+}
+
 TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame, const Object& left,
                                                      const Object& right, double matchError, bool conflict,
                                                      std::size_t modelType) const {
@@ -1244,6 +1369,16 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
                            ? measureSilhouette(w, o.members[0].type, o.feature, window, limits_.centroidCorrelation)
                            : measureSilhouette(w, static_cast<std::size_t>(-1), o.feature, window,
                                                limits_.centroidCorrelation, o.unionMask);
+        // In front of a round neighbour of another type (seen inside its
+        // hull, pixelsInsideHull()): its outline there is its own, the edge
+        // between the two, and is measured as such, the neighbour's pixels
+        // taken for background (a red disc lying on a green one had a short
+        // arc of free outline left, which fitted a wrong ellipse: trust_report
+        // seed 36).
+        if (round && o.unionMask.empty() && v.silhouette.contactPoints > 0)
+            if (const std::optional<ImageWork> behind = withoutNeighboursBehind(w, o))
+                v.silhouette =
+                    measureSilhouette(*behind, o.members[0].type, o.feature, window, limits_.centroidCorrelation);
         // A porous mask (docs/accuracy.md, the thirty-sixth round): where the
         // haze brings a target's colour near its filter's edge, the filter
         // passes it in part. Its holes are filled, but channels cut in from

@@ -384,6 +384,10 @@ private:
     };
 
     std::vector<Object> objects(const AnalysisFrame& frame, Side side) const;
+    /// @p w with the features of round types that single-feature object @p o
+    /// touches and is seen inside the convex hull of (in front of them)
+    /// taken out of their masks; nullopt when there are none.
+    std::optional<ImageWork> withoutNeighboursBehind(const ImageWork& w, const Object& o) const;
     std::vector<bool> typesNear(const cv::Vec3f& bgr, int depth, int bitDepth) const;
     /// The types other than @p own whose colour a colour of type @p own may
     /// as well be: within the margin of the colours their targets may have
