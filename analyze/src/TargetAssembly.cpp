@@ -1320,7 +1320,7 @@ std::optional<ImageWork> TargetAssembler::withoutNeighboursBehind(const ImageWor
             if (!touching(w.masks[own], o.feature, w.masks[t], f)) continue;
             const cv::Rect region = grown(o.feature.box | f.box, 1) & image;
             const cv::Mat behind = featurePixels(w.masks[t], f, region);
-            if (!seenInsideHull(featurePixels(w.masks[own], o.feature, region), o.feature.area, behind, kWithinShare))
+            if (!seenInsideHull(featurePixels(w.masks[own], o.feature, region), o.feature.area, behind, kInFrontShare))
                 continue;
             if (!out) out = w;
             cv::Mat& mask = out->masks[t];
@@ -1752,6 +1752,35 @@ TargetAssembler::Built TargetAssembler::stereoTarget(const AnalysisFrame& frame,
         target.flags |= kTargetAmbiguous;
         built.ambiguousNotByColour = true;
         logger().debug(type.name + ": one round part in both views, and no sphere's: not its composite");
+    }
+    // Two round parts in both views, and the views disagree on which is the
+    // body (the part most of the outline follows): each view's body is one
+    // sphere in space with the other view's second part, not with its body.
+    // No one rigid composite is seen so: two objects of its colour, one
+    // behind the other (a duck 0.7 m behind another, whose body lay beside
+    // the near one's as a head would, was whole by its centroids 226 mm off,
+    // trust_report seed 97).
+    const auto twoRoundParts = [](const ViewVerdict& v) {
+        return v.modelUsable && v.parts.parts.size() >= 2 && v.parts.parts[0].ok && v.parts.parts[1].ok;
+    };
+    if (composite && model != ShapeModel::Composite && twoRoundParts(views[0]) && twoRoundParts(views[1])) {
+        const auto oneSphere = [&](const EllipseFit& l, const EllipseFit& r) {
+            const auto cl = sphereCone(l.conic), cr = sphereCone(r.conic);
+            if (!cl || !cr) return false;
+            const auto p = calculator_.triangulateNormalized(cl->axis, cr->axis);
+            if (!p) return false;
+            const double rl = cv::norm(p->leftMm) * std::sin(cl->halfAngle);
+            const double rr = cv::norm(p->rightMm) * std::sin(cr->halfAngle);
+            return std::abs(rl - rr) <= limits_.maxSphereRadiusMismatch * 0.5 * (rl + rr);
+        };
+        const auto& partsL = views[0].parts.parts;
+        const auto& partsR = views[1].parts.parts;
+        if (!oneSphere(partsL[0], partsR[0]) && oneSphere(partsL[0], partsR[1]) && oneSphere(partsL[1], partsR[0])) {
+            target.flags |= kTargetAmbiguous;
+            built.ambiguousNotByColour = true;
+            logger().debug(type.name + ": the views' bodies are not one sphere, each is the other view's second part: "
+                                       "not one composite");
+        }
     }
     for (int s = 0; s < 2; ++s) {
         const ViewVerdict& v = views[s];
